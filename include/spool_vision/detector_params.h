@@ -1,0 +1,175 @@
+// Every tuning parameter of the detector in one plain struct, plus a table that names each key,
+// its type, unit and allowed range. The YAML loader (CLI) and the ROS parameter loader (node)
+// both walk this table, so a key is declared once and validated the same way everywhere.
+#pragma once
+
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+enum class FilterType
+{
+  kGaussian,
+  kMedian,
+  kAverage,
+  kUnsharp,
+  kNone
+};
+enum class BinarizeType
+{
+  kFixed,
+  kOtsu,
+  kNone
+};
+enum class MorphologyType
+{
+  kOpen,
+  kDilate,
+  kErode,
+  kNone
+};
+enum class MatchMode
+{
+  kMcht,
+  kCht
+};
+enum class YawMode
+{
+  kPinhole,
+  kLinearFov
+};
+enum class ReferenceMode
+{
+  kPuller,
+  kFixed
+};
+
+/// Pre-processing stage (thesis §3.3.2–3.3.3).
+struct PreprocessParams
+{
+  FilterType filter = FilterType::kGaussian;
+  double filter_sigma = 1.5;   ///< px, Gaussian sigma (also the blur of unsharp masking)
+  int filter_kernel = 3;       ///< px, odd aperture of median / average
+  double unsharp_amount = 0.8; ///< gain of the unsharp mask
+  BinarizeType binarize = BinarizeType::kNone;
+  double binarize_threshold = 0.35; ///< fraction of full scale (thesis: 0.35)
+  MorphologyType morphology = MorphologyType::kNone;
+  int morphology_radius = 2;        ///< px, disk structuring element
+  int min_component_area = 0;       ///< px, area opening of the binary image (0 = off)
+};
+
+/// Hough stage (thesis §3.3.4, Rule 1). Radii of 0 are derived from the distance range.
+struct HoughParams
+{
+  double edge_threshold = 0.06;  ///< minimum gradient magnitude, fraction of full scale
+  double sensitivity = 0.80;     ///< MATLAB-style: a circle needs (1 - sensitivity) of its rim
+  Polarity flange_polarity = Polarity::kDark;
+  Polarity hole_polarity = Polarity::kBright;
+  double flange_radius_min = 0.0;  ///< px, 0 = from distance_max
+  double flange_radius_max = 0.0;  ///< px, 0 = from distance_min
+  double hole_radius_min = 0.0;    ///< px, 0 = from distance_max
+  double hole_radius_max = 0.0;    ///< px, 0 = from distance_min
+  double min_visible_fraction = 0.3;  ///< ignore circles with less of their rim in the frame
+  int max_candidates = 6;             ///< flange candidates kept per frame
+};
+
+/// Concentric matcher (thesis Rule 2, Eq. 3.1).
+struct MatcherParams
+{
+  MatchMode mode = MatchMode::kMcht;
+  double concentric_tolerance = 4.0;   ///< px, |hole centre - flange centre| per axis
+  double hole_ratio_tolerance = 0.35;  ///< relative deviation from hole/flange diameter ratio
+};
+
+/// Spool, camera and alignment geometry (thesis §3.4).
+struct GeometryParams
+{
+  double flange_diameter = 0.35;    ///< m
+  double hole_diameter = 0.036;     ///< m
+  double puller_diameter = 0.031;   ///< m
+  double distance_min = 0.45;       ///< m, nearest working distance (sets the largest radius)
+  double distance_max = 1.2;        ///< m, farthest working distance (sets the smallest radius)
+  double fallback_focal_length = 200.0;  ///< px at 120 image rows, used without camera info
+  YawMode yaw_mode = YawMode::kPinhole;
+  double field_of_view = 1.0471975511965976;  ///< rad, diagonal FOV for linear_fov yaw (60 deg)
+  ReferenceMode reference_mode = ReferenceMode::kPuller;
+  double reference_x = 80.0;        ///< px, fixed reference (thesis: 80 at 160x120)
+  double reference_y = 50.0;        ///< px, fixed reference (thesis: 50 at 160x120)
+  double puller_offset_x = 0.0;     ///< m, puller axis from the camera, camera frame x (right)
+  double puller_offset_y = 0.06;    ///< m, puller axis from the camera, camera frame y (down)
+  double overlap_tolerance = 3.0;   ///< px, Rule 3 window around the reference point
+  double aligned_max_yaw = 0.004363323129985824;  ///< rad (0.25 deg)
+  double aligned_distance_min = 0.5;  ///< m
+  double aligned_distance_max = 0.6;  ///< m
+};
+
+struct DetectorParams
+{
+  PreprocessParams preprocess;
+  HoughParams hough;
+  MatcherParams matcher;
+  GeometryParams geometry;
+};
+
+/// A bad parameter: names the key and what it may be.
+class ParamError : public std::runtime_error
+{
+public:
+  ParamError(const std::string& key, const std::string& what)
+    : std::runtime_error("parameter '" + key + "': " + what), key_(key)
+  {
+  }
+  const std::string& key() const { return key_; }
+
+private:
+  std::string key_;
+};
+
+using ParamValue = std::variant<bool, int, double, std::string>;
+
+enum class ParamType
+{
+  kInt,
+  kDouble,
+  kChoice
+};
+
+/// One row of the parameter table.
+struct ParamSpec
+{
+  std::string key;
+  ParamType type;
+  double min_value;                  ///< inclusive, numeric keys
+  double max_value;                  ///< inclusive, numeric keys
+  std::vector<std::string> choices;  ///< allowed words, choice keys
+  std::string unit;
+  std::string doc;
+  std::function<ParamValue(const DetectorParams&)> get;
+  std::function<void(DetectorParams&, const ParamValue&)> set;  ///< value already checked and typed
+
+  /// Human-readable allowed range, e.g. "[0, 1]" or "one of gaussian|median".
+  std::string allowed() const;
+};
+
+/// The table, in the order the YAML files and the README list the keys.
+const std::vector<ParamSpec>& paramSpecs();
+
+/// Finds a key's row, nullptr if the key is unknown.
+const ParamSpec* findParamSpec(const std::string& key);
+
+/// Checks `value` against the key's type and range and stores it. Throws ParamError.
+void setParam(DetectorParams& params, const std::string& key, const ParamValue& value);
+
+/// Checks relations between keys (min < max and the like). Throws ParamError.
+void validateParams(const DetectorParams& params);
+
+/// Renders a value the way the YAML files write it.
+std::string formatParamValue(const ParamValue& value);
+
+}  // namespace spool_vision

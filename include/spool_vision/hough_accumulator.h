@@ -1,0 +1,88 @@
+// Stage 2: the hand-written circular Hough transform (gradient-directed, polarity-aware).
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+/// An edge pixel: sub-pixel position on the gradient maximum and the unit gradient direction
+/// (pointing from dark to bright).
+struct EdgePoint
+{
+  float x;
+  float y;
+  float dx;
+  float dy;
+};
+
+/// Sobel gradients, non-maximum suppression along the gradient and sub-pixel edge positions.
+class EdgeDetector
+{
+public:
+  /// `threshold` is the minimum gradient magnitude as a fraction of full scale (0..1).
+  void detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges);
+
+private:
+  cv::Mat gx_, gy_, mag_;
+};
+
+/// Search settings for one radius range.
+struct HoughSearch
+{
+  double r_min = 0.0;  ///< px
+  double r_max = 0.0;  ///< px
+  Polarity polarity = Polarity::kDark;
+  double min_score = 0.2;              ///< required supported fraction of the in-frame rim
+  double min_visible_fraction = 0.3;   ///< required fraction of the rim inside the image
+  int max_circles = 4;
+  /// Centres are only accepted inside this rectangle (px); empty = anywhere, even off-frame
+  /// within r_max of the image, which is how arcs cut by the border are found.
+  cv::Rect2d center_window;
+};
+
+/// Two-stage CHT: every edge point votes for centres along its gradient over the radius range
+/// into a 2-D accumulator; peaks (after non-maximum suppression) get a radius from a histogram
+/// of supporting edge distances, and a least-squares fit of the supporting points refines the
+/// centre, the radius and the vertical semi-axis to sub-pixel precision.
+class HoughAccumulator
+{
+public:
+  /// Detected circles, best first. `image_size` bounds the visible rim.
+  void detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+              std::vector<Circle>& circles);
+
+  /// The raw vote image of the last call (CV_32F, one cell per `cellSize()` px), for debugging.
+  const cv::Mat& votes() const { return votes_; }
+  double cellSize() const { return cell_; }
+
+private:
+  struct Peak
+  {
+    double x;
+    double y;
+    float votes;
+  };
+  void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
+  void findPeaks(const HoughSearch& search, int max_peaks);
+  bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                     const HoughSearch& search, const Peak& peak, Circle& circle);
+  bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+              Circle& circle);
+
+  cv::Mat votes_;
+  cv::Mat smoothed_;
+  cv::Point2d origin_;  ///< image position of cell (0,0)
+  double cell_ = 1.0;
+  std::vector<Peak> peaks_;
+  std::vector<float> histogram_;
+  std::vector<double> scores_;
+};
+
+/// Fraction of a circle's circumference that lies inside an image of the given size.
+double visibleRimFraction(double x, double y, double r, cv::Size image_size);
+
+}  // namespace spool_vision

@@ -1,0 +1,40 @@
+// Stage 1: grayscale, noise filter, optional binarization, morphology and area opening.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/detector_params.h"
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+/// Turns a camera frame into the 8-bit single-channel image the Hough stage reads.
+/// Buffers are members so steady-state processing does not allocate.
+class Preprocessor
+{
+public:
+  explicit Preprocessor(const PreprocessParams& params = PreprocessParams());
+
+  void setParams(const PreprocessParams& params);
+  const PreprocessParams& params() const { return params_; }
+
+  /// Runs every stage. `out` is CV_8UC1 of the input's size. Throws std::invalid_argument
+  /// when the matrix type does not fit `format` or the image is empty.
+  void process(const cv::Mat& image, PixelFormat format, cv::Mat& out);
+
+  /// The stages one at a time (each `out` may alias nothing else).
+  static void toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray);
+  void filter(const cv::Mat& gray, cv::Mat& out);
+  void binarize(const cv::Mat& gray, cv::Mat& out) const;
+  void morphology(const cv::Mat& binary, cv::Mat& out) const;
+  /// Removes 8-connected foreground components smaller than min_component_area.
+  void areaOpening(const cv::Mat& binary, cv::Mat& out);
+
+private:
+  PreprocessParams params_;
+  cv::Mat structuring_element_;
+  cv::Mat gray_, filtered_, binary_, morph_, blur_;
+  cv::Mat labels_, stats_, centroids_;
+};
+
+}  // namespace spool_vision

@@ -1,0 +1,65 @@
+// The whole pipeline: pre-processing, Hough for flange and hole, MCHT matching and geometry.
+#pragma once
+
+#include <optional>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/concentric_matcher.h"
+#include "spool_vision/detector_params.h"
+#include "spool_vision/hough_accumulator.h"
+#include "spool_vision/preprocessor.h"
+#include "spool_vision/spool_geometry.h"
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+class SpoolDetector
+{
+public:
+  /// Throws ParamError when `params` are inconsistent.
+  explicit SpoolDetector(const DetectorParams& params = DetectorParams());
+
+  /// Replaces the parameters (validated; throws ParamError and keeps the old ones on error).
+  void setParams(const DetectorParams& params);
+  const DetectorParams& params() const { return params_; }
+
+  /// Camera intrinsics for frames of the matching size. Without them (or for another size) the
+  /// thesis camera scaled to the frame is used; usingFallbackCamera() tells which applied last.
+  void setCamera(const CameraIntrinsics& camera);
+  void clearCamera();
+  bool usingFallbackCamera() const { return using_fallback_; }
+
+  /// Processes one frame. Throws std::invalid_argument on an empty, too small or mistyped
+  /// image. Steady state (same size and format) does not allocate.
+  SpoolDetection detect(const cv::Mat& image, PixelFormat format);
+
+  /// Intermediate results of the last frame, for overlays and debugging.
+  const cv::Mat& preprocessed() const { return preprocessed_; }
+  const std::vector<Circle>& flangeCandidates() const { return flanges_; }
+  const std::vector<Circle>& holeCandidates() const { return holes_; }
+
+  /// The smallest frame the detector accepts (each side, px).
+  static constexpr int kMinImageSide = 32;
+
+private:
+  const SpoolGeometry& geometryFor(cv::Size size);
+
+  DetectorParams params_;
+  Preprocessor preprocessor_;
+  EdgeDetector edge_detector_;
+  HoughAccumulator flange_hough_;
+  HoughAccumulator hole_hough_;
+  ConcentricMatcher matcher_;
+  std::optional<CameraIntrinsics> camera_;
+  std::optional<SpoolGeometry> geometry_;
+  bool using_fallback_ = true;
+
+  cv::Mat preprocessed_;
+  std::vector<EdgePoint> edges_;
+  std::vector<Circle> flanges_;
+  std::vector<Circle> holes_;
+};
+
+}  // namespace spool_vision

@@ -1,0 +1,90 @@
+// Plain value types shared by every stage of the ROS-free core.
+#pragma once
+
+#include <limits>
+
+#include <opencv2/core.hpp>
+
+namespace spool_vision
+{
+/// Which side of a circle's rim is darker: a dark disc on a brighter background (the flange)
+/// or a bright disc on a darker background (the lit bore).
+enum class Polarity
+{
+  kDark,
+  kBright
+};
+
+/// A circle in pixel coordinates (OpenCV convention: (0,0) is the centre of the top-left pixel).
+struct Circle
+{
+  double x = 0.0;
+  double y = 0.0;
+  double r = 0.0;
+  /// Vertical semi-axis of the fitted rim (px); equals r for a fronto-parallel circle. The
+  /// vertical extent of a circle at depth Z is exact under yaw, so distance uses this.
+  double r_vertical = 0.0;
+  /// Fraction of the in-frame rim supported by edge pixels, 0..1.
+  double score = 0.0;
+  /// Fraction of the rim that lies inside the image, 0..1.
+  double visible_fraction = 0.0;
+};
+
+/// Pinhole intrinsics of the (rectified) image the detector sees.
+struct CameraIntrinsics
+{
+  double fx = 0.0;
+  double fy = 0.0;
+  double cx = 0.0;
+  double cy = 0.0;
+  int width = 0;
+  int height = 0;
+
+  bool valid() const { return fx > 0.0 && fy > 0.0 && width > 0 && height > 0; }
+
+  /// The thesis camera (C270: f = 200 px at 120 rows) scaled to an image of the given size,
+  /// principal point at the image centre. `focal_at_120_rows` lets a config override 200 px.
+  static CameraIntrinsics thesisDefault(int width, int height, double focal_at_120_rows = 200.0)
+  {
+    CameraIntrinsics k;
+    k.fx = k.fy = focal_at_120_rows * height / 120.0;
+    k.cx = (width - 1) / 2.0;
+    k.cy = (height - 1) / 2.0;
+    k.width = width;
+    k.height = height;
+    return k;
+  }
+};
+
+/// Pixel layout of an input frame (cv::Mat does not carry the channel order).
+enum class PixelFormat
+{
+  kMono8,
+  kMono16,
+  kBgr8,
+  kRgb8,
+  kBgra8,
+  kRgba8
+};
+
+/// What the detector reports for one frame. Undefined numbers are NaN, never stale values.
+struct SpoolDetection
+{
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+  bool detected = false;       ///< flange found
+  bool hole_detected = false;  ///< a hole that passed the matcher
+  bool overlapped = false;     ///< flange and hole centres on the reference point (Rule 3)
+  bool aligned = false;        ///< safe to insert: overlapped, yaw and lateral error small, in window
+  double distance = kNaN;        ///< m, range from the optical centre to the flange centre
+  double yaw = kNaN;             ///< rad, positive when the spool appears right of the reference
+  double lateral_offset = kNaN;  ///< m, distance * tan(yaw)
+  double tolerance = 0.0;      ///< m, t_f = (hole - puller) / 2
+  double confidence = 0.0;     ///< 0..1
+  Circle flange;
+  Circle hole;
+  cv::Point2d reference;       ///< px, where the puller axis appears
+  double time_ms = 0.0;        ///< detector processing time for this frame
+};
+
+}  // namespace spool_vision

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs the Debian packages spool_vision needs (ROS 1 from Debian, OpenCV, Eigen, GTest,
+# Google Benchmark). Idempotent: packages already installed are skipped, and apt is not touched
+# when nothing is missing.
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config
+  ros-base-dev catkin ros-message-generation ros-message-runtime rosbash
+  libcv-bridge-dev libimage-transport-dev libsensor-msgs-dev libcamera-info-manager-dev
+  libdiagnostic-updater-dev libdynamic-reconfigure-config-init-mutex-dev
+  libnodeletlib-dev pluginlib-dev librostest-dev libstd-msgs-dev
+  python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-sensor-msgs
+  python3-dynamic-reconfigure python3-cv-bridge python3-numpy
+  libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+echo "install_deps: installing ${missing[*]}"
+SUDO=""
+[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"

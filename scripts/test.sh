@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Runs every test: installs what is missing, builds, runs the gtest suites (core, io, CLI) and
+# the ROS tests (rostest, bag replay), then prints one summary line "N passed, N failed".
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/install_deps.sh
+source scripts/env.sh
+./scripts/build.sh tests
+
+results="$SPOOL_WS/build/test_results"
+rm -rf "$results"
+# run_tests keeps going past a failing suite; the summary below decides the exit code.
+(cd "$SPOOL_WS" && catkin_make run_tests -j1 >"$SPOOL_WS/run_tests.log" 2>&1) || true
+grep -E '^\[ *(RUN|OK|FAILED|PASSED) *\]|^\[ROSTEST\]|^\[Testcase|FAILURE|ERROR' "$SPOOL_WS/run_tests.log" | tail -n 400 || true
+
+/usr/bin/python3 - "$results" <<'PY'
+import glob, sys, xml.etree.ElementTree as ET
+passed = failed = skipped = 0
+suites = 0
+for path in glob.glob(sys.argv[1] + "/**/*.xml", recursive=True):
+    root = ET.parse(path).getroot()
+    for case in root.iter("testcase"):
+        if case.find("skipped") is not None:
+            skipped += 1
+        elif case.find("failure") is not None or case.find("error") is not None:
+            failed += 1
+            print("FAILED:", path.split("/")[-1], case.get("classname"), case.get("name"))
+        else:
+            passed += 1
+    suites += 1
+if suites == 0 or passed + failed == 0:
+    print("no test results found in", sys.argv[1])
+    failed += 1
+print(f"{passed} passed, {failed} failed" + (f", {skipped} skipped" if skipped else ""))
+sys.exit(1 if failed else 0)
+PY

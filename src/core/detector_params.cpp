@@ -1,0 +1,294 @@
+#include "spool_vision/detector_params.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace spool_vision
+{
+namespace
+{
+const char* const kPolarities[] = {"dark", "bright"};
+
+std::string formatNumber(double v)
+{
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// Builders keep each row of the table to one line: key, member, range, unit, doc.
+template <typename Member>
+ParamSpec number(const std::string& key, Member member, double lo, double hi, const std::string& unit,
+                 const std::string& doc)
+{
+  using T = std::remove_reference_t<decltype(member(std::declval<DetectorParams&>()))>;
+  static_assert(std::is_same_v<T, int> || std::is_same_v<T, double>, "numeric keys are int or double");
+  const ParamType type = std::is_same_v<T, int> ? ParamType::kInt : ParamType::kDouble;
+  return ParamSpec{key,
+                   type,
+                   lo,
+                   hi,
+                   {},
+                   unit,
+                   doc,
+                   [member](const DetectorParams& p) -> ParamValue { return member(p); },
+                   [member](DetectorParams& p, const ParamValue& v) {
+                     if constexpr (std::is_same_v<T, int>)
+                       member(p) = std::get<int>(v);
+                     else
+                       member(p) = std::get<double>(v);
+                   }};
+}
+
+template <typename Enum, typename Member>
+ParamSpec choice(const std::string& key, Member member, std::vector<std::string> words,
+                 const std::string& doc)
+{
+  auto names = words;
+  return ParamSpec{key,
+                   ParamType::kChoice,
+                   0,
+                   0,
+                   std::move(words),
+                   "",
+                   doc,
+                   [member, names](const DetectorParams& p) -> ParamValue {
+                     return names.at(static_cast<size_t>(member(p)));
+                   },
+                   [member, names](DetectorParams& p, const ParamValue& v) {
+                     const auto& word = std::get<std::string>(v);
+                     for (size_t i = 0; i < names.size(); ++i)
+                       if (names[i] == word)
+                         member(p) = static_cast<Enum>(i);
+                   }};
+}
+
+#define FIELD(path) [](auto& p) -> auto& { return p.path; }
+
+std::vector<ParamSpec> buildSpecs()
+{
+  const std::vector<std::string> polarity(std::begin(kPolarities), std::end(kPolarities));
+  return {
+      // Pre-processing (thesis §3.3.2-3.3.3)
+      choice<FilterType>("filter", FIELD(preprocess.filter),
+                         {"gaussian", "median", "average", "unsharp", "none"},
+                         "noise filter before the edge stage"),
+      number("filter_sigma", FIELD(preprocess.filter_sigma), 0.3, 20.0, "px",
+             "Gaussian sigma (gaussian; also the blur of unsharp)"),
+      number("filter_kernel", FIELD(preprocess.filter_kernel), 1, 31, "px",
+             "odd aperture of median and average filters"),
+      number("unsharp_amount", FIELD(preprocess.unsharp_amount), 0.0, 5.0, "",
+             "gain of the unsharp mask"),
+      choice<BinarizeType>("binarize", FIELD(preprocess.binarize), {"fixed", "otsu", "none"},
+                           "binarization before the Hough stage (thesis: fixed)"),
+      number("binarize_threshold", FIELD(preprocess.binarize_threshold), 0.0, 1.0,
+             "fraction of full scale", "fixed binarization level (thesis: 0.35)"),
+      choice<MorphologyType>("morphology", FIELD(preprocess.morphology),
+                             {"open", "dilate", "erode", "none"},
+                             "morphology on the binary image (thesis: open)"),
+      number("morphology_radius", FIELD(preprocess.morphology_radius), 0, 15, "px",
+             "radius of the disk structuring element"),
+      number("min_component_area", FIELD(preprocess.min_component_area), 0, 100000, "px",
+             "area opening: drop binary components smaller than this (0 = off)"),
+      // Hough (thesis §3.3.4, Rule 1)
+      number("edge_threshold", FIELD(hough.edge_threshold), 0.0, 1.0, "fraction of full scale",
+             "minimum Sobel gradient magnitude of an edge pixel"),
+      number("sensitivity", FIELD(hough.sensitivity), 0.0, 0.99, "",
+             "a circle needs (1 - sensitivity) of its visible rim supported (thesis: 0.89)"),
+      choice<Polarity>("flange_polarity", FIELD(hough.flange_polarity), polarity,
+                       "flange disc darker or brighter than its surroundings"),
+      choice<Polarity>("hole_polarity", FIELD(hough.hole_polarity), polarity,
+                       "hole disc darker or brighter than the flange face"),
+      number("flange_radius_min", FIELD(hough.flange_radius_min), 0.0, 5000.0, "px",
+             "smallest flange radius (0 = from distance_max and the focal length)"),
+      number("flange_radius_max", FIELD(hough.flange_radius_max), 0.0, 5000.0, "px",
+             "largest flange radius (0 = from distance_min and the focal length)"),
+      number("hole_radius_min", FIELD(hough.hole_radius_min), 0.0, 1000.0, "px",
+             "smallest hole radius (0 = from distance_max and the focal length)"),
+      number("hole_radius_max", FIELD(hough.hole_radius_max), 0.0, 1000.0, "px",
+             "largest hole radius (0 = from distance_min and the focal length)"),
+      number("min_visible_fraction", FIELD(hough.min_visible_fraction), 0.05, 1.0, "",
+             "ignore circles with less of their rim inside the image"),
+      number("max_candidates", FIELD(hough.max_candidates), 1, 64, "",
+             "flange candidates examined per frame"),
+      // Concentric matcher (thesis Eq. 3.1, Rule 2)
+      choice<MatchMode>("mode", FIELD(matcher.mode), {"mcht", "cht"},
+                        "mcht: hole must be concentric with the flange; cht: no constraint"),
+      number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 100.0, "px",
+             "hole centre within this of the flange centre on each axis (thesis: 2)"),
+      number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",
+             "relative deviation allowed from the hole/flange diameter ratio"),
+      // Geometry (thesis §3.4)
+      number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m",
+             "spool flange diameter"),
+      number("hole_diameter", FIELD(geometry.hole_diameter), 0.001, 1.0, "m",
+             "centre hole (bore) diameter"),
+      number("puller_diameter", FIELD(geometry.puller_diameter), 0.0, 1.0, "m",
+             "puller peg diameter"),
+      number("distance_min", FIELD(geometry.distance_min), 0.05, 20.0, "m",
+             "nearest working distance (sets the largest radii)"),
+      number("distance_max", FIELD(geometry.distance_max), 0.05, 20.0, "m",
+             "farthest working distance (sets the smallest radii)"),
+      number("fallback_focal_length", FIELD(geometry.fallback_focal_length), 1.0, 10000.0,
+             "px at 120 rows", "focal length without camera info, scaled with image height"),
+      choice<YawMode>("yaw_mode", FIELD(geometry.yaw_mode), {"pinhole", "linear_fov"},
+                      "pinhole: atan(du / fx); linear_fov: thesis Eq. 3.4/3.5"),
+      number("field_of_view", FIELD(geometry.field_of_view), 0.01, 3.1, "rad",
+             "diagonal field of view for linear_fov yaw (C270: 60 deg)"),
+      choice<ReferenceMode>("reference_mode", FIELD(geometry.reference_mode), {"puller", "fixed"},
+                            "puller: projected puller axis; fixed: reference_x/y"),
+      number("reference_x", FIELD(geometry.reference_x), -1e4, 1e4, "px",
+             "fixed reference column (thesis: 80 at 160x120)"),
+      number("reference_y", FIELD(geometry.reference_y), -1e4, 1e4, "px",
+             "fixed reference row (thesis: 50 at 160x120)"),
+      number("puller_offset_x", FIELD(geometry.puller_offset_x), -2.0, 2.0, "m",
+             "puller axis from the camera along camera x (right)"),
+      number("puller_offset_y", FIELD(geometry.puller_offset_y), -2.0, 2.0, "m",
+             "puller axis from the camera along camera y (down)"),
+      number("overlap_tolerance", FIELD(geometry.overlap_tolerance), 0.0, 100.0, "px",
+             "Rule 3: flange and hole centres within this of the reference (thesis: 2)"),
+      number("aligned_max_yaw", FIELD(geometry.aligned_max_yaw), 0.0, 0.5, "rad",
+             "largest |yaw| reported as aligned (0.25 deg = 0.00436)"),
+      number("aligned_distance_min", FIELD(geometry.aligned_distance_min), 0.0, 20.0, "m",
+             "insertion window, near end"),
+      number("aligned_distance_max", FIELD(geometry.aligned_distance_max), 0.0, 20.0, "m",
+             "insertion window, far end"),
+  };
+}
+#undef FIELD
+
+std::string typeName(ParamType t)
+{
+  switch (t)
+  {
+    case ParamType::kInt:
+      return "an integer";
+    case ParamType::kDouble:
+      return "a number";
+    case ParamType::kChoice:
+      return "a word";
+  }
+  return "?";
+}
+
+[[noreturn]] void fail(const ParamSpec& spec, const std::string& why)
+{
+  throw ParamError(spec.key, why + "; allowed: " + spec.allowed());
+}
+
+// The value as the key's type (an int for an integral double, a double for an int), or throws.
+ParamValue checkedValue(const ParamSpec& spec, const ParamValue& value)
+{
+  if (spec.type == ParamType::kChoice)
+  {
+    const auto* word = std::get_if<std::string>(&value);
+    if (!word)
+      fail(spec, "expected a word, got " + formatParamValue(value));
+    for (const auto& c : spec.choices)
+      if (c == *word)
+        return value;
+    fail(spec, "'" + *word + "' is not a choice");
+  }
+
+  double number = 0.0;
+  if (const auto* i = std::get_if<int>(&value))
+    number = *i;
+  else if (const auto* d = std::get_if<double>(&value))
+    number = *d;
+  else
+    fail(spec, "expected " + typeName(spec.type) + ", got " + formatParamValue(value));
+
+  if (!std::isfinite(number) || number < spec.min_value || number > spec.max_value)
+    fail(spec, formatNumber(number) + " is out of range");
+  if (spec.type == ParamType::kInt)
+  {
+    if (number != std::floor(number))
+      fail(spec, formatNumber(number) + " is not an integer");
+    return static_cast<int>(number);
+  }
+  return number;
+}
+
+}  // namespace
+
+std::string ParamSpec::allowed() const
+{
+  if (type == ParamType::kChoice)
+  {
+    std::string s = "one of ";
+    for (size_t i = 0; i < choices.size(); ++i)
+      s += (i ? "|" : "") + choices[i];
+    return s;
+  }
+  return typeName(type) + " in [" + formatNumber(min_value) + ", " + formatNumber(max_value) + "]" +
+         (unit.empty() ? "" : " " + unit);
+}
+
+const std::vector<ParamSpec>& paramSpecs()
+{
+  static const std::vector<ParamSpec> specs = buildSpecs();
+  return specs;
+}
+
+const ParamSpec* findParamSpec(const std::string& key)
+{
+  for (const auto& spec : paramSpecs())
+    if (spec.key == key)
+      return &spec;
+  return nullptr;
+}
+
+void setParam(DetectorParams& params, const std::string& key, const ParamValue& value)
+{
+  const ParamSpec* spec = findParamSpec(key);
+  if (!spec)
+    throw ParamError(key, "unknown parameter");
+  spec->set(params, checkedValue(*spec, value));
+}
+
+void validateParams(const DetectorParams& p)
+{
+  // A struct filled in code is held to the same table as a YAML file.
+  for (const auto& spec : paramSpecs())
+    checkedValue(spec, spec.get(p));
+
+  auto order = [](const char* lo_key, double lo, const char* hi_key, double hi) {
+    if (lo > 0.0 && hi > 0.0 && lo >= hi)
+      throw ParamError(hi_key, "must be greater than " + std::string(lo_key) + " (" +
+                                   formatNumber(lo) + ")");
+  };
+  const auto& h = p.hough;
+  order("flange_radius_min", h.flange_radius_min, "flange_radius_max", h.flange_radius_max);
+  order("hole_radius_min", h.hole_radius_min, "hole_radius_max", h.hole_radius_max);
+  const auto& g = p.geometry;
+  order("distance_min", g.distance_min, "distance_max", g.distance_max);
+  order("aligned_distance_min", g.aligned_distance_min, "aligned_distance_max",
+        g.aligned_distance_max);
+  if (g.hole_diameter >= g.flange_diameter)
+    throw ParamError("hole_diameter", "must be smaller than flange_diameter (" +
+                                          formatNumber(g.flange_diameter) + " m)");
+  if (g.puller_diameter > g.hole_diameter)
+    throw ParamError("puller_diameter", "must not exceed hole_diameter (" +
+                                            formatNumber(g.hole_diameter) + " m)");
+  const int k = p.preprocess.filter_kernel;
+  if (k % 2 == 0)
+    throw ParamError("filter_kernel", std::to_string(k) + " is even; allowed: odd integers in [1, 31]");
+}
+
+std::string formatParamValue(const ParamValue& value)
+{
+  if (const auto* b = std::get_if<bool>(&value))
+    return *b ? "true" : "false";
+  if (const auto* i = std::get_if<int>(&value))
+    return std::to_string(*i);
+  if (const auto* d = std::get_if<double>(&value))
+  {
+    std::ostringstream os;
+    os.precision(10);
+    os << *d;
+    return os.str();
+  }
+  return std::get<std::string>(value);
+}
+
+}  // namespace spool_vision

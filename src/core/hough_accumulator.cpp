@@ -1,0 +1,389 @@
+#include "spool_vision/hough_accumulator.h"
+
+#include <algorithm>
+#include <bitset>
+#include <cmath>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+namespace spool_vision
+{
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+// A 3x3 Sobel answers 4 * 255 to a full-scale step.
+constexpr float kSobelFullScale = 4.0f * 255.0f;
+// Edge direction must agree with the radial direction within ~30 degrees to support a rim.
+constexpr float kMinRadialAlignment = 0.866f;
+constexpr int kRimSamples = 64;
+
+// Sign that turns a dark-to-bright gradient into the direction from the rim to the centre.
+float centreSign(Polarity polarity)
+{
+  return polarity == Polarity::kBright ? 1.0f : -1.0f;
+}
+}  // namespace
+
+double visibleRimFraction(double x, double y, double r, cv::Size image_size)
+{
+  const double max_x = image_size.width - 0.5;
+  const double max_y = image_size.height - 0.5;
+  int inside = 0;
+  for (int i = 0; i < kRimSamples; ++i)
+  {
+    const double a = (i + 0.5) * 2.0 * kPi / kRimSamples;
+    const double px = x + r * std::cos(a);
+    const double py = y + r * std::sin(a);
+    inside += (px >= -0.5 && px <= max_x && py >= -0.5 && py <= max_y) ? 1 : 0;
+  }
+  return static_cast<double>(inside) / kRimSamples;
+}
+
+void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges)
+{
+  edges.clear();
+  cv::Sobel(gray8, gx_, CV_16S, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+  cv::Sobel(gray8, gy_, CV_16S, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
+  mag_.create(gray8.size(), CV_32F);
+  for (int y = 0; y < gray8.rows; ++y)
+  {
+    const short* gx = gx_.ptr<short>(y);
+    const short* gy = gy_.ptr<short>(y);
+    float* m = mag_.ptr<float>(y);
+    for (int x = 0; x < gray8.cols; ++x)
+      m[x] = std::sqrt(static_cast<float>(gx[x] * gx[x] + gy[x] * gy[x]));
+  }
+
+  const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
+  const size_t step = mag_.step1();
+  for (int y = 1; y + 1 < gray8.rows; ++y)
+  {
+    const short* gxr = gx_.ptr<short>(y);
+    const short* gyr = gy_.ptr<short>(y);
+    const float* m = mag_.ptr<float>(y);
+    for (int x = 1; x + 1 < gray8.cols; ++x)
+    {
+      const float c = m[x];
+      if (c < t)
+        continue;
+      const float dx = gxr[x] / c;
+      const float dy = gyr[x] / c;
+      // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood.
+      const int sx = std::abs(dx) > 0.3827f ? (dx > 0 ? 1 : -1) : 0;
+      const int sy = std::abs(dy) > 0.3827f ? (dy > 0 ? 1 : -1) : 0;
+      const float before = m[x - sx - static_cast<std::ptrdiff_t>(sy * step)];
+      const float after = m[x + sx + static_cast<std::ptrdiff_t>(sy * step)];
+      if (c < before || c <= after)
+        continue;
+      // Parabola through the three magnitudes puts the edge between pixels.
+      const float denom = before - 2.0f * c + after;
+      const float offset = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
+      edges.push_back({x + offset * sx, y + offset * sy, dx, dy});
+    }
+  }
+}
+
+void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSearch& search)
+{
+  const float sign = centreSign(search.polarity);
+  const float cell = static_cast<float>(cell_);
+  const float inv_cell = 1.0f / cell;
+  const int cols = votes_.cols;
+  const int rows = votes_.rows;
+  const int steps = std::max(1, static_cast<int>(std::ceil((search.r_max - search.r_min) / cell_)) + 1);
+  const float ox = static_cast<float>(origin_.x);
+  const float oy = static_cast<float>(origin_.y);
+  const float r0 = static_cast<float>(search.r_min);
+  float* data = votes_.ptr<float>();
+
+  for (const EdgePoint& e : edges)
+  {
+    // Accumulator coordinates of the centre at r_min and the step per radius increment.
+    float ax = (e.x + sign * r0 * e.dx - ox) * inv_cell;
+    float ay = (e.y + sign * r0 * e.dy - oy) * inv_cell;
+    const float sx = sign * e.dx;
+    const float sy = sign * e.dy;
+    float r = r0;
+    for (int i = 0; i < steps; ++i, ax += sx, ay += sy, r += cell)
+    {
+      const int ix = static_cast<int>(ax + 0.5f);
+      const int iy = static_cast<int>(ay + 0.5f);
+      if (ix < 0 || iy < 0 || ix >= cols || iy >= rows)
+        continue;
+      // 1/r weighting makes a full circle worth ~2*pi whatever its size.
+      data[iy * cols + ix] += cell / r;
+    }
+  }
+}
+
+void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
+{
+  peaks_.clear();
+  cv::GaussianBlur(votes_, smoothed_, cv::Size(3, 3), 0.8, 0.8, cv::BORDER_CONSTANT);
+  // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
+  const float floor_votes =
+      static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
+  for (int y = 1; y + 1 < smoothed_.rows; ++y)
+  {
+    const float* up = smoothed_.ptr<float>(y - 1);
+    const float* row = smoothed_.ptr<float>(y);
+    const float* down = smoothed_.ptr<float>(y + 1);
+    for (int x = 1; x + 1 < smoothed_.cols; ++x)
+    {
+      const float v = row[x];
+      if (v < floor_votes || v < row[x - 1] || v <= row[x + 1] || v < up[x - 1] || v < up[x] ||
+          v < up[x + 1] || v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
+        continue;
+      // Sub-cell centre from a parabola through the neighbours on each axis.
+      const float dxden = row[x - 1] - 2 * v + row[x + 1];
+      const float dyden = up[x] - 2 * v + down[x];
+      const float ox = dxden < 0 ? 0.5f * (row[x - 1] - row[x + 1]) / dxden : 0.0f;
+      const float oy = dyden < 0 ? 0.5f * (up[x] - down[x]) / dyden : 0.0f;
+      peaks_.push_back({origin_.x + (x + ox) * cell_, origin_.y + (y + oy) * cell_, v});
+    }
+  }
+  std::sort(peaks_.begin(), peaks_.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
+  // Greedy suppression: two centres closer than half the smallest radius are one circle.
+  const double min_sep2 = std::pow(std::max(2.0 * cell_, 0.5 * search.r_min), 2);
+  size_t kept = 0;
+  for (size_t i = 0; i < peaks_.size() && static_cast<int>(kept) < max_peaks; ++i)
+  {
+    bool near = false;
+    for (size_t j = 0; j < kept && !near; ++j)
+      near = std::pow(peaks_[i].x - peaks_[j].x, 2) + std::pow(peaks_[i].y - peaks_[j].y, 2) < min_sep2;
+    if (!near)
+      peaks_[kept++] = peaks_[i];
+  }
+  peaks_.resize(kept);
+}
+
+bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                     const HoughSearch& search, const Peak& peak, Circle& circle)
+{
+  const float sign = centreSign(search.polarity);
+  // The centre is known to about a cell; the radius histogram must tolerate that much.
+  const double slack = cell_ + 1.0;
+  const double lo = std::max(1.0, search.r_min - slack);
+  const double hi = search.r_max + slack;
+  const int bins = static_cast<int>(std::ceil(hi - lo)) + 1;
+  histogram_.assign(static_cast<size_t>(bins), 0.0f);
+  const float cx = static_cast<float>(peak.x);
+  const float cy = static_cast<float>(peak.y);
+  const float lo2 = static_cast<float>(lo * lo);
+  const float hi2 = static_cast<float>(hi * hi);
+  for (const EdgePoint& e : edges)
+  {
+    const float vx = e.x - cx;
+    const float vy = e.y - cy;
+    const float d2 = vx * vx + vy * vy;
+    if (d2 < lo2 || d2 > hi2)
+      continue;
+    const float d = std::sqrt(d2);
+    // The gradient must point along the radius, away from the centre for a dark disc.
+    if (-sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
+      continue;
+    histogram_[static_cast<size_t>(d - lo + 0.5)] += 1.0f;
+  }
+
+  // Score each radius (3-bin window) by its supported fraction of the visible rim. Among the
+  // radii scoring close to the best, the largest wins: ribs and labels are concentric but
+  // smaller than the rim.
+  double best_score = 0.0;
+  double best_r = 0.0;
+  double best_vis = 0.0;
+  std::vector<double>& scores = scores_;
+  scores.assign(static_cast<size_t>(bins), 0.0);
+  for (int i = 1; i + 1 < bins; ++i)
+  {
+    const double r = lo + i;
+    if (r < search.r_min || r > search.r_max)
+      continue;
+    const double support = histogram_[i - 1] + histogram_[i] + histogram_[i + 1];
+    if (support < 3.0)
+      continue;
+    const double vis = visibleRimFraction(peak.x, peak.y, r, image_size);
+    if (vis < search.min_visible_fraction)
+      continue;
+    scores[static_cast<size_t>(i)] = support / (2.0 * kPi * r * vis);
+    best_score = std::max(best_score, scores[static_cast<size_t>(i)]);
+  }
+  if (best_score <= 0.0)
+    return false;
+  for (int i = bins - 2; i >= 1; --i)
+  {
+    if (scores[static_cast<size_t>(i)] >= 0.8 * best_score)
+    {
+      // Take the local maximum at or just inside the first strong radius from outside.
+      int j = i;
+      while (j > 1 && scores[static_cast<size_t>(j - 1)] > scores[static_cast<size_t>(j)])
+        --j;
+      best_r = lo + j;
+      best_score = scores[static_cast<size_t>(j)];
+      break;
+    }
+  }
+  best_vis = visibleRimFraction(peak.x, peak.y, best_r, image_size);
+  circle.x = peak.x;
+  circle.y = peak.y;
+  circle.r = best_r;
+  circle.r_vertical = best_r;
+  circle.score = std::min(1.0, best_score);
+  circle.visible_fraction = best_vis;
+  return true;
+}
+
+bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                              const HoughSearch& search, Circle& circle)
+{
+  const float sign = centreSign(search.polarity);
+  // Current rim model: an axis-aligned ellipse (a circle seen from a yawed camera is
+  // stretched horizontally). Starts as the Hough circle.
+  double cx = circle.x;
+  double cy = circle.y;
+  double semi_x = circle.r;
+  double semi_y = circle.r;
+  double r_fit = circle.r;
+  int count = 0;
+  for (int iteration = 0; iteration < 4; ++iteration)
+  {
+    // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught
+    // whole; then it narrows onto the fitted model.
+    static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025};
+    const double band = std::max(1.5, kBands[iteration] * r_fit);
+    const double mean_r = std::sqrt(semi_x * semi_y);
+    const double scale = 1.0 / mean_r;
+
+    // Normal equations of two algebraic fits in coordinates centred and scaled on the
+    // current model (for conditioning):
+    //   circle:  u^2 + v^2 + a u + b v + c = 0
+    //   ellipse: A u^2 + B v^2 + C u + D v = 1
+    Eigen::Matrix3d cn = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d cr = Eigen::Vector3d::Zero();
+    Eigen::Matrix4d en = Eigen::Matrix4d::Zero();
+    Eigen::Vector4d er = Eigen::Vector4d::Zero();
+    count = 0;
+    unsigned octants = 0;
+    for (const EdgePoint& e : edges)
+    {
+      const double vx = e.x - cx;
+      const double vy = e.y - cy;
+      const double rho = std::hypot(vx / semi_x, vy / semi_y);
+      if (std::abs(rho - 1.0) * mean_r > band)
+        continue;
+      const double d = std::hypot(vx, vy);
+      if (-sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
+        continue;
+      const double u = vx * scale;
+      const double v = vy * scale;
+      const Eigen::Vector3d c(u, v, 1.0);
+      cn += c * c.transpose();
+      cr -= c * (u * u + v * v);
+      const Eigen::Vector4d q(u * u, v * v, u, v);
+      en += q * q.transpose();
+      er += q;
+      octants |= 1u << (static_cast<int>((std::atan2(v, u) + kPi) / (kPi / 4.0)) & 7);
+      ++count;
+    }
+    if (count < 8)
+      return false;
+
+    const Eigen::Vector3d abc = cn.ldlt().solve(cr);
+    const double ux = -abc(0) / 2.0;
+    const double uy = -abc(1) / 2.0;
+    const double rr = ux * ux + uy * uy - abc(2);
+    if (!(rr > 0.0))
+      return false;
+    r_fit = std::sqrt(rr) * mean_r;
+    double ncx = cx + ux * mean_r;
+    double ncy = cy + uy * mean_r;
+    double nsx = r_fit;
+    double nsy = r_fit;
+
+    // The ellipse needs the rim on the left and the right of the centre and most octants.
+    const bool left = octants & ((1u << 3) | (1u << 4));
+    const bool right = octants & ((1u << 0) | (1u << 7));
+    if (left && right && std::bitset<8>(octants).count() >= 5)
+    {
+      const Eigen::Vector4d sol = en.ldlt().solve(er);
+      if (sol(0) > 0.0 && sol(1) > 0.0)
+      {
+        const double x0 = -sol(2) / (2.0 * sol(0));
+        const double y0 = -sol(3) / (2.0 * sol(1));
+        const double k = 1.0 + sol(0) * x0 * x0 + sol(1) * y0 * y0;
+        const double ex = std::sqrt(k / sol(0)) * mean_r;
+        const double ey = std::sqrt(k / sol(1)) * mean_r;
+        if (k > 0.0 && std::abs(ex / r_fit - 1.0) < 0.2 && std::abs(ey / r_fit - 1.0) < 0.2)
+        {
+          ncx = cx + x0 * mean_r;
+          ncy = cy + y0 * mean_r;
+          nsx = ex;
+          nsy = ey;
+        }
+      }
+    }
+    cx = ncx;
+    cy = ncy;
+    semi_x = nsx;
+    semi_y = nsy;
+  }
+  circle.x = cx;
+  circle.y = cy;
+  circle.r = r_fit;
+  circle.r_vertical = semi_y;
+  circle.visible_fraction = visibleRimFraction(cx, cy, r_fit, image_size);
+  if (circle.visible_fraction < search.min_visible_fraction)
+    return false;
+  // Thin 8-connected edges put about 0.9 points per unit of arc length on a rim.
+  circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * r_fit * circle.visible_fraction));
+  return r_fit >= search.r_min * 0.9 && r_fit <= search.r_max * 1.1;
+}
+
+void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                              const HoughSearch& search, std::vector<Circle>& circles)
+{
+  circles.clear();
+  if (search.r_max <= 0.0 || search.r_max < search.r_min || edges.empty())
+    return;
+
+  // Cells coarse enough to keep the accumulator small for big radii, fine for small ones.
+  cell_ = std::clamp(std::floor(search.r_min / 16.0), 1.0, 8.0);
+  cv::Rect2d window = search.center_window;
+  if (window.empty())
+  {
+    // Centres off the image still leave min_visible_fraction of the rim in view.
+    const double margin = search.r_max * std::cos(kPi * search.min_visible_fraction);
+    window = cv::Rect2d(-margin, -margin, image_size.width + 2 * margin,
+                        image_size.height + 2 * margin);
+  }
+  // One cell of border keeps the peak test and the smoothing away from the window's edge.
+  origin_ = cv::Point2d(window.x - cell_, window.y - cell_);
+  const int cols = static_cast<int>(std::ceil(window.width / cell_)) + 3;
+  const int rows = static_cast<int>(std::ceil(window.height / cell_)) + 3;
+  votes_.create(rows, cols, CV_32F);
+  votes_.setTo(0.0f);
+
+  vote(edges, search);
+  findPeaks(search, 3 * search.max_circles);
+
+  for (const Peak& peak : peaks_)
+  {
+    Circle circle;
+    if (!measureRadius(edges, image_size, search, peak, circle) ||
+        !refine(edges, image_size, search, circle) || circle.score < search.min_score)
+      continue;
+    if (!search.center_window.empty() && !search.center_window.contains(cv::Point2d(circle.x, circle.y)))
+      continue;
+    // Two peaks can refine onto the same rim; keep the first (stronger) one.
+    const bool duplicate = std::any_of(circles.begin(), circles.end(), [&](const Circle& c) {
+      return std::hypot(c.x - circle.x, c.y - circle.y) < 0.25 * circle.r && std::abs(c.r - circle.r) < 0.1 * circle.r;
+    });
+    if (!duplicate)
+      circles.push_back(circle);
+  }
+  std::sort(circles.begin(), circles.end(), [](const Circle& a, const Circle& b) { return a.score > b.score; });
+  if (static_cast<int>(circles.size()) > search.max_circles)
+    circles.resize(static_cast<size_t>(search.max_circles));
+}
+
+}  // namespace spool_vision

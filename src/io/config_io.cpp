@@ -1,0 +1,119 @@
+#include "spool_vision/config_io.h"
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <yaml-cpp/yaml.h>
+
+namespace spool_vision
+{
+namespace
+{
+YAML::Node loadFile(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw std::runtime_error("cannot open '" + path + "'");
+  try
+  {
+    return YAML::Load(in);
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw std::runtime_error("'" + path + "' is not valid YAML: " + e.what());
+  }
+}
+
+// A scalar as the value type the key expects, so "2" may set a double and 2.0 an int key
+// (the range check then decides).
+ParamValue scalarValue(const ParamSpec& spec, const YAML::Node& node)
+{
+  if (!node.IsScalar())
+    throw ParamError(spec.key, "expected a single value; allowed: " + spec.allowed());
+  if (spec.type == ParamType::kChoice)
+    return node.as<std::string>();
+  double number = 0.0;
+  if (!YAML::convert<double>::decode(node, number))
+    throw ParamError(spec.key, "'" + node.Scalar() + "' is not a number; allowed: " + spec.allowed());
+  return number;
+}
+}  // namespace
+
+void loadParamsYaml(const std::string& path, DetectorParams& params)
+{
+  const YAML::Node root = loadFile(path);
+  if (root.IsNull())
+    return;  // an empty file keeps the defaults
+  if (!root.IsMap())
+    throw std::runtime_error("'" + path + "' must be a map of parameter: value");
+  DetectorParams loaded = params;
+  for (const auto& item : root)
+  {
+    const std::string key = item.first.as<std::string>();
+    const ParamSpec* spec = findParamSpec(key);
+    if (!spec)
+      throw ParamError(key, "unknown parameter in '" + path + "'");
+    setParam(loaded, key, scalarValue(*spec, item.second));
+  }
+  validateParams(loaded);
+  params = loaded;
+}
+
+std::string paramsToYaml(const DetectorParams& params)
+{
+  std::ostringstream os;
+  for (const auto& spec : paramSpecs())
+    os << spec.key << ": " << formatParamValue(spec.get(params)) << "  # " << spec.doc
+       << (spec.unit.empty() ? "" : " [" + spec.unit + "]") << "; " << spec.allowed() << "\n";
+  return os.str();
+}
+
+CameraIntrinsics loadCameraInfoYaml(const std::string& path)
+{
+  const YAML::Node root = loadFile(path);
+  try
+  {
+    CameraIntrinsics k;
+    k.width = root["image_width"].as<int>();
+    k.height = root["image_height"].as<int>();
+    const auto data = root["camera_matrix"]["data"].as<std::vector<double>>();
+    if (data.size() != 9)
+      throw std::runtime_error("camera_matrix.data must have 9 numbers, has " + std::to_string(data.size()));
+    k.fx = data[0];
+    k.cx = data[2];
+    k.fy = data[4];
+    k.cy = data[5];
+    if (!k.valid())
+      throw std::runtime_error("uncalibrated: fx, fy and the image size must be positive");
+    return k;
+  }
+  catch (const YAML::Exception& e)
+  {
+    throw std::runtime_error("'" + path + "' is not a camera-calibration file (image_width, image_height, " +
+                             "camera_matrix.data): " + e.what());
+  }
+  catch (const std::runtime_error& e)
+  {
+    throw std::runtime_error("'" + path + "': " + e.what());
+  }
+}
+
+std::string cameraInfoToYaml(const CameraIntrinsics& k, const std::string& camera_name)
+{
+  std::ostringstream os;
+  os.precision(10);
+  os << "image_width: " << k.width << "\n"
+     << "image_height: " << k.height << "\n"
+     << "camera_name: " << camera_name << "\n"
+     << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, " << k.fy
+     << ", " << k.cy << ", 0, 0, 1]\n"
+     << "distortion_model: plumb_bob\n"
+     << "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [0, 0, 0, 0, 0]\n"
+     << "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
+     << "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, 0, "
+     << k.fy << ", " << k.cy << ", 0, 0, 0, 1, 0]\n";
+  return os.str();
+}
+
+}  // namespace spool_vision

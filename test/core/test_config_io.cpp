@@ -1,0 +1,123 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "spool_vision/config_io.h"
+
+using spool_vision::DetectorParams;
+using spool_vision::loadCameraInfoYaml;
+using spool_vision::loadParamsYaml;
+using spool_vision::ParamError;
+
+namespace
+{
+const std::string kConfigDir = SPOOL_CONFIG_DIR;
+
+std::string writeTemp(const std::string& name, const std::string& text)
+{
+  const std::string path = ::testing::TempDir() + name;
+  std::ofstream(path) << text;
+  return path;
+}
+}  // namespace
+
+TEST(ConfigIo, DefaultYamlListsEveryKeyWithTheBuiltInValue)
+{
+  const YAML::Node root = YAML::LoadFile(kConfigDir + "/default.yaml");
+  const DetectorParams defaults;
+  for (const auto& spec : spool_vision::paramSpecs())
+  {
+    ASSERT_TRUE(root[spec.key]) << spec.key << " is missing from default.yaml";
+    DetectorParams one;
+    spool_vision::setParam(one, spec.key,
+                           spec.type == spool_vision::ParamType::kChoice
+                               ? spool_vision::ParamValue(root[spec.key].as<std::string>())
+                               : spool_vision::ParamValue(root[spec.key].as<double>()));
+    EXPECT_EQ(spool_vision::formatParamValue(spec.get(one)), spool_vision::formatParamValue(spec.get(defaults)))
+        << spec.key;
+  }
+  EXPECT_EQ(root.size(), spool_vision::paramSpecs().size());
+}
+
+TEST(ConfigIo, SeedYamlIsTheThesisPipeline)
+{
+  DetectorParams p;
+  loadParamsYaml(kConfigDir + "/seed.yaml", p);
+  EXPECT_EQ(p.preprocess.binarize, spool_vision::BinarizeType::kFixed);
+  EXPECT_DOUBLE_EQ(p.preprocess.binarize_threshold, 0.35);
+  EXPECT_DOUBLE_EQ(p.preprocess.filter_sigma, 2.0);
+  EXPECT_EQ(p.preprocess.morphology, spool_vision::MorphologyType::kOpen);
+  EXPECT_EQ(p.preprocess.min_component_area, 30);
+  EXPECT_DOUBLE_EQ(p.hough.sensitivity, 0.89);
+  EXPECT_DOUBLE_EQ(p.hough.flange_radius_min, 35);
+  EXPECT_DOUBLE_EQ(p.hough.flange_radius_max, 65);
+  EXPECT_DOUBLE_EQ(p.hough.hole_radius_min, 3);
+  EXPECT_DOUBLE_EQ(p.hough.hole_radius_max, 15);
+  EXPECT_DOUBLE_EQ(p.matcher.concentric_tolerance, 2);
+  EXPECT_EQ(p.geometry.yaw_mode, spool_vision::YawMode::kLinearFov);
+  EXPECT_EQ(p.geometry.reference_mode, spool_vision::ReferenceMode::kFixed);
+  EXPECT_DOUBLE_EQ(p.geometry.reference_x, 80);
+  EXPECT_DOUBLE_EQ(p.geometry.reference_y, 50);
+}
+
+TEST(ConfigIo, BadFilesNameTheProblem)
+{
+  DetectorParams p;
+  try
+  {
+    loadParamsYaml(writeTemp("unknown.yaml", "filter: gaussian\nsigmaa: 2\n"), p);
+    FAIL() << "unknown key accepted";
+  }
+  catch (const ParamError& e)
+  {
+    EXPECT_EQ(e.key(), "sigmaa");
+  }
+  try
+  {
+    loadParamsYaml(writeTemp("range.yaml", "sensitivity: 1.2\n"), p);
+    FAIL() << "out-of-range value accepted";
+  }
+  catch (const ParamError& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("[0, 0.99]"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(loadParamsYaml(writeTemp("word.yaml", "filter_sigma: wide\n"), p), ParamError);
+  EXPECT_THROW(loadParamsYaml(writeTemp("list.yaml", "filter_sigma: [1, 2]\n"), p), ParamError);
+  EXPECT_THROW(loadParamsYaml(writeTemp("broken.yaml", "filter: [gaussian\n"), p), std::runtime_error);
+  EXPECT_THROW(loadParamsYaml("/nonexistent/params.yaml", p), std::runtime_error);
+  // Relations are checked after the whole file is read, and a failed load changes nothing.
+  EXPECT_THROW(loadParamsYaml(writeTemp("order.yaml", "hole_radius_min: 9\nhole_radius_max: 4\n"), p), ParamError);
+  EXPECT_DOUBLE_EQ(p.hough.hole_radius_min, DetectorParams().hough.hole_radius_min);
+}
+
+TEST(ConfigIo, CameraInfoRoundTrip)
+{
+  spool_vision::CameraIntrinsics k;
+  k.fx = 812.5;
+  k.fy = 810.25;
+  k.cx = 321.5;
+  k.cy = 239.0;
+  k.width = 640;
+  k.height = 480;
+  const std::string path = writeTemp("camera.yaml", spool_vision::cameraInfoToYaml(k, "c270"));
+  const auto back = loadCameraInfoYaml(path);
+  EXPECT_DOUBLE_EQ(back.fx, 812.5);
+  EXPECT_DOUBLE_EQ(back.fy, 810.25);
+  EXPECT_DOUBLE_EQ(back.cx, 321.5);
+  EXPECT_DOUBLE_EQ(back.cy, 239.0);
+  EXPECT_EQ(back.width, 640);
+  EXPECT_EQ(back.height, 480);
+}
+
+TEST(ConfigIo, CameraInfoErrors)
+{
+  EXPECT_THROW(loadCameraInfoYaml(writeTemp("nok.yaml", "image_width: 640\n")), std::runtime_error);
+  EXPECT_THROW(loadCameraInfoYaml(writeTemp("zero.yaml", "image_width: 640\nimage_height: 480\n"
+                                                         "camera_matrix: {rows: 3, cols: 3, data: [0,0,0,0,0,0,0,0,0]}\n")),
+               std::runtime_error);
+  EXPECT_THROW(loadCameraInfoYaml(writeTemp("short.yaml", "image_width: 640\nimage_height: 480\n"
+                                                          "camera_matrix: {rows: 3, cols: 3, data: [1, 2]}\n")),
+               std::runtime_error);
+}

@@ -1,0 +1,151 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "spool_vision/hough_accumulator.h"
+#include "synthetic.h"
+
+using spool_vision::Circle;
+using spool_vision::EdgeDetector;
+using spool_vision::EdgePoint;
+using spool_vision::HoughAccumulator;
+using spool_vision::HoughSearch;
+using spool_vision::Polarity;
+using spool_vision::test::drawSceneGray;
+using spool_vision::test::SceneStyle;
+
+namespace
+{
+std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polarity polarity,
+                         cv::Rect2d window = cv::Rect2d(), double threshold = 0.05)
+{
+  cv::Mat smooth;
+  cv::GaussianBlur(gray, smooth, cv::Size(), 1.0);
+  EdgeDetector edges;
+  std::vector<EdgePoint> points;
+  edges.detect(smooth, threshold, points);
+  HoughSearch search;
+  search.r_min = r_min;
+  search.r_max = r_max;
+  search.polarity = polarity;
+  search.center_window = window;
+  HoughAccumulator hough;
+  std::vector<Circle> circles;
+  hough.detect(points, gray.size(), search, circles);
+  return circles;
+}
+}  // namespace
+
+TEST(EdgeDetector, FindsAStepWithSubPixelPositionAndDirection)
+{
+  // A vertical step between columns 9 and 10 has its edge at x = 9.5.
+  cv::Mat img(20, 20, CV_8UC1, cv::Scalar(50));
+  img(cv::Rect(10, 0, 10, 20)).setTo(200);
+  EdgeDetector detector;
+  std::vector<EdgePoint> edges;
+  detector.detect(img, 0.1, edges);
+  ASSERT_FALSE(edges.empty());
+  for (const auto& e : edges)
+  {
+    EXPECT_NEAR(e.x, 9.5, 0.05);
+    EXPECT_NEAR(e.dx, 1.0, 1e-3);  // dark to bright points right
+    EXPECT_NEAR(e.dy, 0.0, 1e-3);
+  }
+  detector.detect(cv::Mat(20, 20, CV_8UC1, cv::Scalar(90)), 0.01, edges);
+  EXPECT_TRUE(edges.empty());
+}
+
+TEST(HoughAccumulator, FindsADarkCircleWithSubPixelAccuracy)
+{
+  const cv::Mat img = drawSceneGray({320, 240}, {{161.3, 118.7, 62.4, 0}});
+  const auto circles = find(img, 40, 90, Polarity::kDark);
+  ASSERT_FALSE(circles.empty());
+  EXPECT_NEAR(circles[0].x, 161.3, 0.2);
+  EXPECT_NEAR(circles[0].y, 118.7, 0.2);
+  EXPECT_NEAR(circles[0].r, 62.4, 0.3);
+  EXPECT_NEAR(circles[0].r_vertical, 62.4, 0.3);
+  EXPECT_GT(circles[0].score, 0.8);
+  EXPECT_NEAR(circles[0].visible_fraction, 1.0, 1e-9);
+}
+
+TEST(HoughAccumulator, PolaritySelectsDarkOrBrightDiscs)
+{
+  SceneStyle style;
+  style.background = 40;
+  style.flange = 220;  // a bright disc
+  const cv::Mat img = drawSceneGray({200, 200}, {{100, 100, 30, 0}}, style);
+  const auto bright = find(img, 20, 40, Polarity::kBright);
+  ASSERT_EQ(bright.size(), 1u);
+  EXPECT_NEAR(bright[0].r, 30, 0.3);
+  EXPECT_TRUE(find(img, 20, 40, Polarity::kDark).empty());
+}
+
+TEST(HoughAccumulator, FindsAnArcCutByTheFrameBorder)
+{
+  // Centre 40 px right of the image, radius 120: about 40% of the rim is in view.
+  const cv::Mat img = drawSceneGray({320, 240}, {{359.0, 120.0, 120.0, 0}});
+  const auto circles = find(img, 80, 160, Polarity::kDark);
+  ASSERT_FALSE(circles.empty());
+  EXPECT_NEAR(circles[0].x, 359.0, 0.5);
+  EXPECT_NEAR(circles[0].y, 120.0, 0.5);
+  EXPECT_NEAR(circles[0].r, 120.0, 0.5);
+  EXPECT_GT(circles[0].visible_fraction, 0.3);
+  EXPECT_LT(circles[0].visible_fraction, 0.6);
+}
+
+TEST(HoughAccumulator, ToleratesNoise)
+{
+  SceneStyle style;
+  style.noise_sigma = 10.0;
+  const cv::Mat img = drawSceneGray({320, 240}, {{150.0, 110.0, 70.0, 0}}, style);
+  const auto circles = find(img, 50, 90, Polarity::kDark, cv::Rect2d(), 0.08);
+  ASSERT_FALSE(circles.empty());
+  EXPECT_NEAR(circles[0].x, 150.0, 0.5);
+  EXPECT_NEAR(circles[0].y, 110.0, 0.5);
+  EXPECT_NEAR(circles[0].r, 70.0, 0.5);
+}
+
+TEST(HoughAccumulator, PrefersTheOuterRimOfConcentricRings)
+{
+  // A dark disc with a slightly lighter dark ring inside: both rims vote for one centre.
+  cv::Mat img = drawSceneGray({320, 240}, {{160, 120, 90, 0}});
+  spool_vision::test::fillEllipse(img, 160, 120, 62, 62, 20);
+  spool_vision::test::fillEllipse(img, 160, 120, 58, 58, 35);  // a 4 px darker ring at r = 58..62
+  const auto circles = find(img, 40, 110, Polarity::kDark);
+  ASSERT_FALSE(circles.empty());
+  EXPECT_NEAR(circles[0].r, 90.0, 0.5);
+}
+
+TEST(HoughAccumulator, SmallBrightHoleInsideAWindow)
+{
+  const cv::Mat img = drawSceneGray({160, 120}, {{80.4, 60.2, 40.0, 4.2}});
+  const auto holes = find(img, 2.5, 8, Polarity::kBright, cv::Rect2d(76, 56, 8, 8));
+  ASSERT_EQ(holes.size(), 1u);
+  EXPECT_NEAR(holes[0].x, 80.4, 0.3);
+  EXPECT_NEAR(holes[0].y, 60.2, 0.3);
+  EXPECT_NEAR(holes[0].r, 4.2, 0.4);
+}
+
+TEST(HoughAccumulator, VerticalSemiAxisOfAStretchedRim)
+{
+  // A circle seen from a yawed camera is stretched horizontally by 1/cos(yaw); the vertical
+  // axis is exact. 64/60 is a 21 degree bearing, just beyond the +-20 degree working range.
+  cv::Mat img(240, 320, CV_8UC1, cv::Scalar(170));
+  spool_vision::test::fillEllipse(img, 160.0, 120.0, 64.0, 60.0, 35);
+  const auto circles = find(img, 40, 90, Polarity::kDark);
+  ASSERT_FALSE(circles.empty());
+  EXPECT_NEAR(circles[0].r_vertical, 60.0, 0.5);
+  EXPECT_GT(circles[0].r, 61.0);
+}
+
+TEST(HoughAccumulator, NothingOnAnEmptyImage)
+{
+  EXPECT_TRUE(find(cv::Mat(120, 160, CV_8UC1, cv::Scalar(100)), 10, 50, Polarity::kDark).empty());
+}
+
+TEST(VisibleRimFraction, CountsTheRimInsideTheImage)
+{
+  EXPECT_NEAR(spool_vision::visibleRimFraction(50, 50, 20, {100, 100}), 1.0, 1e-9);
+  EXPECT_NEAR(spool_vision::visibleRimFraction(-0.5, -0.5, 20, {100, 100}), 0.25, 0.02);
+  EXPECT_NEAR(spool_vision::visibleRimFraction(99.5, 50, 20, {100, 100}), 0.5, 0.02);
+}

@@ -1,0 +1,185 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "spool_vision/preprocessor.h"
+
+using spool_vision::BinarizeType;
+using spool_vision::FilterType;
+using spool_vision::MorphologyType;
+using spool_vision::PixelFormat;
+using spool_vision::Preprocessor;
+using spool_vision::PreprocessParams;
+
+TEST(Preprocessor, GrayFromEveryPixelFormat)
+{
+  cv::Mat gray;
+  // Pure red in BGR order is (0,0,255); read as RGB it would be pure blue.
+  const cv::Mat red_bgr(4, 4, CV_8UC3, cv::Scalar(0, 0, 255));
+  Preprocessor::toGray(red_bgr, PixelFormat::kBgr8, gray);
+  EXPECT_NEAR(gray.at<uchar>(0, 0), 76, 1);  // 0.299 * 255
+  Preprocessor::toGray(red_bgr, PixelFormat::kRgb8, gray);
+  EXPECT_NEAR(gray.at<uchar>(0, 0), 29, 1);  // 0.114 * 255
+
+  const cv::Mat red_bgra(4, 4, CV_8UC4, cv::Scalar(0, 0, 255, 255));
+  Preprocessor::toGray(red_bgra, PixelFormat::kBgra8, gray);
+  EXPECT_NEAR(gray.at<uchar>(0, 0), 76, 1);
+  Preprocessor::toGray(red_bgra, PixelFormat::kRgba8, gray);
+  EXPECT_NEAR(gray.at<uchar>(0, 0), 29, 1);
+
+  const cv::Mat deep(4, 4, CV_16UC1, cv::Scalar(65535));
+  Preprocessor::toGray(deep, PixelFormat::kMono16, gray);
+  EXPECT_EQ(gray.type(), CV_8UC1);
+  EXPECT_EQ(gray.at<uchar>(0, 0), 255);
+
+  const cv::Mat mono(4, 4, CV_8UC1, cv::Scalar(42));
+  Preprocessor::toGray(mono, PixelFormat::kMono8, gray);
+  EXPECT_EQ(gray.at<uchar>(3, 3), 42);
+}
+
+TEST(Preprocessor, RejectsMismatchedOrEmptyImages)
+{
+  cv::Mat gray;
+  EXPECT_THROW(Preprocessor::toGray(cv::Mat(), PixelFormat::kMono8, gray), std::invalid_argument);
+  EXPECT_THROW(Preprocessor::toGray(cv::Mat(4, 4, CV_8UC3), PixelFormat::kMono8, gray), std::invalid_argument);
+  EXPECT_THROW(Preprocessor::toGray(cv::Mat(4, 4, CV_32FC1), PixelFormat::kMono16, gray), std::invalid_argument);
+}
+
+namespace
+{
+double noiseStddev(const cv::Mat& img)
+{
+  cv::Scalar mean;
+  cv::Scalar stddev;
+  cv::meanStdDev(img, mean, stddev);
+  return stddev[0];
+}
+cv::Mat noisy()
+{
+  cv::Mat out(64, 64, CV_16S, cv::Scalar(128));
+  cv::Mat signed_noise(64, 64, CV_16S);
+  cv::RNG(7).fill(signed_noise, cv::RNG::NORMAL, 0, 20);
+  out += signed_noise;
+  out.convertTo(out, CV_8U);
+  return out;
+}
+}  // namespace
+
+TEST(Preprocessor, SmoothingFiltersReduceNoise)
+{
+  const cv::Mat in = noisy();
+  const double before = noiseStddev(in);
+  for (FilterType f : {FilterType::kGaussian, FilterType::kMedian, FilterType::kAverage})
+  {
+    PreprocessParams p;
+    p.filter = f;
+    p.filter_sigma = 2.0;
+    p.filter_kernel = 5;
+    Preprocessor pre(p);
+    cv::Mat out;
+    pre.filter(in, out);
+    EXPECT_LT(noiseStddev(out), 0.5 * before) << static_cast<int>(f);
+  }
+  PreprocessParams none;
+  none.filter = FilterType::kNone;
+  Preprocessor pre(none);
+  cv::Mat out;
+  pre.filter(in, out);
+  EXPECT_EQ(cv::norm(in, out, cv::NORM_INF), 0.0);
+}
+
+TEST(Preprocessor, UnsharpIncreasesEdgeContrast)
+{
+  cv::Mat step(16, 16, CV_8UC1, cv::Scalar(100));
+  step(cv::Rect(8, 0, 8, 16)).setTo(150);
+  PreprocessParams p;
+  p.filter = FilterType::kUnsharp;
+  p.filter_sigma = 1.0;
+  p.unsharp_amount = 1.0;
+  Preprocessor pre(p);
+  cv::Mat out;
+  pre.filter(step, out);
+  EXPECT_LT(out.at<uchar>(8, 7), 100);  // undershoot on the dark side
+  EXPECT_GT(out.at<uchar>(8, 8), 150);  // overshoot on the bright side
+  EXPECT_EQ(out.at<uchar>(8, 0), 100);  // flat areas unchanged
+}
+
+TEST(Preprocessor, FixedThresholdIsAFractionOfFullScale)
+{
+  PreprocessParams p;
+  p.binarize = BinarizeType::kFixed;
+  p.binarize_threshold = 0.35;  // 89.25 of 255
+  Preprocessor pre(p);
+  cv::Mat in(1, 2, CV_8UC1);
+  in.at<uchar>(0, 0) = 89;
+  in.at<uchar>(0, 1) = 90;
+  cv::Mat out;
+  pre.binarize(in, out);
+  EXPECT_EQ(out.at<uchar>(0, 0), 0);
+  EXPECT_EQ(out.at<uchar>(0, 1), 255);
+}
+
+TEST(Preprocessor, OtsuSplitsABimodalImage)
+{
+  cv::Mat in(10, 10, CV_8UC1, cv::Scalar(40));
+  in(cv::Rect(0, 0, 5, 10)).setTo(200);
+  PreprocessParams p;
+  p.binarize = BinarizeType::kOtsu;
+  Preprocessor pre(p);
+  cv::Mat out;
+  pre.binarize(in, out);
+  EXPECT_EQ(out.at<uchar>(5, 2), 255);
+  EXPECT_EQ(out.at<uchar>(5, 7), 0);
+}
+
+TEST(Preprocessor, MorphologyOpenRemovesSpecksKeepsDiscs)
+{
+  cv::Mat bin(40, 40, CV_8UC1, cv::Scalar(0));
+  cv::circle(bin, {20, 20}, 8, cv::Scalar(255), cv::FILLED);
+  bin.at<uchar>(3, 3) = 255;
+  PreprocessParams p;
+  p.morphology_radius = 2;
+  cv::Mat out;
+  p.morphology = MorphologyType::kOpen;
+  Preprocessor(p).morphology(bin, out);
+  EXPECT_EQ(out.at<uchar>(3, 3), 0);
+  EXPECT_EQ(out.at<uchar>(20, 20), 255);
+  EXPECT_EQ(out.at<uchar>(20, 27), 255);
+
+  p.morphology = MorphologyType::kDilate;
+  Preprocessor(p).morphology(bin, out);
+  EXPECT_EQ(out.at<uchar>(20, 29), 255);  // grown by the radius
+  p.morphology = MorphologyType::kErode;
+  Preprocessor(p).morphology(bin, out);
+  EXPECT_EQ(out.at<uchar>(20, 27), 0);  // shrunk by the radius
+}
+
+TEST(Preprocessor, AreaOpeningDropsSmallComponents)
+{
+  cv::Mat bin(40, 40, CV_8UC1, cv::Scalar(0));
+  bin(cv::Rect(2, 2, 5, 5)).setTo(255);    // 25 px
+  bin(cv::Rect(20, 20, 6, 5)).setTo(255);  // 30 px
+  PreprocessParams p;
+  p.min_component_area = 30;
+  Preprocessor pre(p);
+  cv::Mat out;
+  pre.areaOpening(bin, out);
+  EXPECT_EQ(out.at<uchar>(4, 4), 0);
+  EXPECT_EQ(out.at<uchar>(22, 22), 255);
+  EXPECT_EQ(cv::countNonZero(out), 30);
+}
+
+TEST(Preprocessor, ThesisChainProducesABinaryImage)
+{
+  PreprocessParams p;
+  p.filter = FilterType::kGaussian;
+  p.filter_sigma = 2.0;
+  p.binarize = BinarizeType::kFixed;
+  p.morphology = MorphologyType::kOpen;
+  p.min_component_area = 30;
+  Preprocessor pre(p);
+  cv::Mat out;
+  pre.process(noisy(), PixelFormat::kMono8, out);
+  ASSERT_EQ(out.type(), CV_8UC1);
+  EXPECT_EQ(cv::countNonZero((out != 0) & (out != 255)), 0);
+}

@@ -1,0 +1,141 @@
+// The command-line contract of spool_detect (DESIGN.md §6), checked on the real binary.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "synthetic.h"
+
+namespace fs = std::filesystem;
+using spool_vision::CameraIntrinsics;
+using spool_vision::test::drawScene;
+using spool_vision::test::spoolAt;
+
+namespace
+{
+struct CliRun
+{
+  int exit_code;
+  std::vector<std::string> lines;
+};
+
+CliRun spoolDetect(const std::string& args)
+{
+  const std::string cmd = std::string(SPOOL_DETECT_BIN) + " " + args + " 2>/dev/null";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  CliRun run{-1, {}};
+  if (!pipe)
+    return run;
+  std::string out;
+  char buf[4096];
+  while (size_t n = fread(buf, 1, sizeof(buf), pipe))
+    out.append(buf, n);
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::istringstream lines(out);
+  for (std::string line; std::getline(lines, line);)
+    run.lines.push_back(line);
+  return run;
+}
+
+bool has(const std::string& line, const std::string& fragment)
+{
+  return line.find(fragment) != std::string::npos;
+}
+
+// A number after "key": in a flat JSON line, NaN if absent or null.
+double number(const std::string& line, const std::string& key)
+{
+  const auto at = line.find("\"" + key + "\": ");
+  if (at == std::string::npos)
+    return std::nan("");
+  return std::strtod(line.c_str() + at + key.size() + 4, nullptr);
+}
+
+class SpoolDetectCli : public ::testing::Test
+{
+protected:
+  void SetUp() override
+  {
+    dir_ = fs::path(::testing::TempDir()) / "spool_detect_cli";
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "set");
+    const auto vga = CameraIntrinsics::thesisDefault(640, 480);
+    cv::imwrite((dir_ / "set/a_spool.png").string(), drawScene({640, 480}, {spoolAt(vga, 0.8, 0.0, 0.06)}));
+    cv::imwrite((dir_ / "set/b_empty.jpg").string(), drawScene({640, 480}, {}));
+    std::ofstream(dir_ / "set/c_broken.png") << "not an image";
+    std::ofstream(dir_ / "set/notes.txt") << "ignored: not an image extension";
+  }
+  fs::path dir_;
+};
+}  // namespace
+
+TEST_F(SpoolDetectCli, OneJsonLinePerImageInOrder)
+{
+  const CliRun run = spoolDetect((dir_ / "set").string());
+  ASSERT_EQ(run.lines.size(), 3u);
+  EXPECT_EQ(run.exit_code, 1);  // c_broken.png cannot be read
+
+  const std::string& spool = run.lines[0];
+  EXPECT_TRUE(has(spool, "\"image\": \"" + (dir_ / "set/a_spool.png").string() + "\"")) << spool;
+  EXPECT_TRUE(has(spool, "\"width\": 640, \"height\": 480")) << spool;
+  EXPECT_TRUE(has(spool, "\"detected\": true")) << spool;
+  EXPECT_TRUE(has(spool, "\"hole_detected\": true")) << spool;
+  EXPECT_NEAR(number(spool, "distance"), std::hypot(0.8, 0.06), 0.008) << spool;
+  EXPECT_TRUE(has(spool, "\"flange\": {\"x\": ")) << spool;
+  EXPECT_TRUE(has(spool, "\"reference\": {\"x\": ")) << spool;
+  EXPECT_GE(number(spool, "time_ms"), 0.0);
+
+  const std::string& empty = run.lines[1];
+  EXPECT_TRUE(has(empty, "\"detected\": false")) << empty;
+  EXPECT_TRUE(has(empty, "\"distance\": null")) << empty;
+  EXPECT_TRUE(has(empty, "\"flange\": null")) << empty;
+
+  const std::string& broken = run.lines[2];
+  EXPECT_TRUE(has(broken, "c_broken.png\", \"error\": ")) << broken;
+}
+
+TEST_F(SpoolDetectCli, ExitsZeroWhenEveryImageWorked)
+{
+  const CliRun run = spoolDetect((dir_ / "set/a_spool.png").string() + " " + (dir_ / "set/b_empty.jpg").string());
+  EXPECT_EQ(run.exit_code, 0);
+  EXPECT_EQ(run.lines.size(), 2u);
+}
+
+TEST_F(SpoolDetectCli, MissingFileIsAnErrorLine)
+{
+  const CliRun run = spoolDetect((dir_ / "nope.png").string());
+  EXPECT_EQ(run.exit_code, 1);
+  ASSERT_EQ(run.lines.size(), 1u);
+  EXPECT_TRUE(has(run.lines[0], "\"error\"")) << run.lines[0];
+}
+
+TEST_F(SpoolDetectCli, BadOptionsAndConfigsExitTwo)
+{
+  std::ofstream(dir_ / "bad.yaml") << "sensitivity: 3\n";
+  EXPECT_EQ(spoolDetect("--config " + (dir_ / "bad.yaml").string() + " " + dir_.string()).exit_code, 2);
+  EXPECT_EQ(spoolDetect("--mode hough " + dir_.string()).exit_code, 2);
+  EXPECT_EQ(spoolDetect("--frobnicate " + dir_.string()).exit_code, 2);
+  EXPECT_EQ(spoolDetect("--camera-info /nonexistent.yaml " + dir_.string()).exit_code, 2);
+  EXPECT_EQ(spoolDetect("").exit_code, 2);
+}
+
+TEST_F(SpoolDetectCli, ConfigAndModeAreApplied)
+{
+  const std::string seed = std::string(SPOOL_CONFIG_DIR) + "/seed.yaml";
+  // Seed config at 160x120 uses the fixed thesis reference (80, 50).
+  const auto qqvga = CameraIntrinsics::thesisDefault(160, 120);
+  cv::imwrite((dir_ / "small.png").string(), drawScene({160, 120}, {spoolAt(qqvga, 0.8, 0.0, 0.06)}));
+  const CliRun run = spoolDetect("--config " + seed + " --mode cht " + (dir_ / "small.png").string());
+  ASSERT_EQ(run.exit_code, 0);
+  ASSERT_EQ(run.lines.size(), 1u);
+  EXPECT_TRUE(has(run.lines[0], "\"reference\": {\"x\": 80.00, \"y\": 50.00}")) << run.lines[0];
+  EXPECT_TRUE(has(run.lines[0], "\"detected\": true")) << run.lines[0];
+}

@@ -1,0 +1,190 @@
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <new>
+
+#include <opencv2/imgproc.hpp>
+
+#include "spool_vision/spool_detector.h"
+#include "synthetic.h"
+
+using spool_vision::CameraIntrinsics;
+using spool_vision::DetectorParams;
+using spool_vision::MatchMode;
+using spool_vision::PixelFormat;
+using spool_vision::SpoolDetection;
+using spool_vision::SpoolDetector;
+using spool_vision::test::drawScene;
+using spool_vision::test::DrawnSpool;
+using spool_vision::test::spoolAt;
+
+// Counts heap allocations while enabled, to check the steady-state promise.
+namespace
+{
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_allocations{0};
+}  // namespace
+void* operator new(std::size_t n)
+{
+  if (g_counting)
+    ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1))
+    return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept
+{
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept
+{
+  std::free(p);
+}
+
+namespace
+{
+const CameraIntrinsics kVga = CameraIntrinsics::thesisDefault(640, 480);
+const CameraIntrinsics kQqvga = CameraIntrinsics::thesisDefault(160, 120);
+
+double range(double depth, double lateral, double below)
+{
+  return std::sqrt(depth * depth + lateral * lateral + below * below);
+}
+}  // namespace
+
+TEST(SpoolDetector, MeasuresACentredSpoolAt640x480)
+{
+  SpoolDetector detector;
+  const DrawnSpool s = spoolAt(kVga, 0.8, 0.0, 0.06);
+  const SpoolDetection d = detector.detect(drawScene({640, 480}, {s}), PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  ASSERT_TRUE(d.hole_detected);
+  EXPECT_TRUE(detector.usingFallbackCamera());
+  EXPECT_NEAR(d.flange.x, s.x, 0.5);
+  EXPECT_NEAR(d.flange.y, s.y, 0.5);
+  EXPECT_NEAR(d.hole.r, s.hole_r, 0.5);
+  EXPECT_NEAR(d.distance, range(0.8, 0, 0.06), 0.01 * 0.8);
+  EXPECT_NEAR(d.yaw, 0.0, 0.1 * M_PI / 180);
+  EXPECT_TRUE(d.overlapped);
+  EXPECT_FALSE(d.aligned);  // 80 cm is outside the insertion window
+  EXPECT_GE(d.time_ms, 0.0);
+}
+
+TEST(SpoolDetector, AlignedInTheInsertionWindow)
+{
+  SpoolDetector detector;
+  // At 55 cm the 35 cm flange (r = 255 px) is cut by the top and bottom of a 640x480 frame.
+  const SpoolDetection d = detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.55, 0.0, 0.06)}), PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  ASSERT_TRUE(d.hole_detected);
+  EXPECT_NEAR(d.distance, range(0.55, 0, 0.06), 0.01 * 0.55);
+  EXPECT_TRUE(d.aligned);
+
+  // 4 mm sideways is more than the 2.5 mm clearance.
+  const SpoolDetection off = detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.55, 0.004, 0.06)}), PixelFormat::kBgr8);
+  ASSERT_TRUE(off.detected);
+  EXPECT_NEAR(off.lateral_offset, 0.004, 0.001);
+  EXPECT_FALSE(off.aligned);
+}
+
+TEST(SpoolDetector, YawAndLateralOffsetOfAnOffsetSpool)
+{
+  SpoolDetector detector;
+  const SpoolDetection d = detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.9, 0.12, 0.06)}), PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  EXPECT_NEAR(d.yaw, std::atan(0.12 / 0.9), 0.1 * M_PI / 180);
+  EXPECT_NEAR(d.lateral_offset, 0.12 * d.distance / 0.9, 0.003);
+  EXPECT_NEAR(d.distance, range(0.9, 0.12, 0.06), 0.01 * 0.9);
+  EXPECT_FALSE(d.overlapped);
+}
+
+TEST(SpoolDetector, WorksAt160x120WithACalibratedCamera)
+{
+  SpoolDetector detector;
+  CameraIntrinsics k = kQqvga;
+  k.fx = k.fy = 210.0;
+  detector.setCamera(k);
+  const DrawnSpool s = spoolAt(k, 0.7, -0.03, 0.06);
+  const SpoolDetection d = detector.detect(drawScene({160, 120}, {s}), PixelFormat::kBgr8);
+  EXPECT_FALSE(detector.usingFallbackCamera());
+  ASSERT_TRUE(d.detected);
+  EXPECT_TRUE(d.hole_detected);
+  EXPECT_NEAR(d.distance, range(0.7, -0.03, 0.06), 0.02 * 0.7);
+  EXPECT_LT(d.yaw, 0.0);
+}
+
+TEST(SpoolDetector, TargetsTheSpoolInFrontAmongNeighbours)
+{
+  SpoolDetector detector;
+  // Neighbours 35 cm + 3 cm gap to each side at 1 m: only parts of them are in view.
+  const DrawnSpool centre = spoolAt(kVga, 1.0, 0.02, 0.06);
+  const DrawnSpool left = spoolAt(kVga, 1.0, 0.02 - 0.38, 0.06);
+  const DrawnSpool right = spoolAt(kVga, 1.0, 0.02 + 0.38, 0.06);
+  const SpoolDetection d = detector.detect(drawScene({640, 480}, {left, centre, right}), PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  EXPECT_NEAR(d.flange.x, centre.x, 1.0);
+  EXPECT_TRUE(d.hole_detected);
+}
+
+TEST(SpoolDetector, MchtRejectsAnOffCentreHoleThatChtAccepts)
+{
+  const DrawnSpool s = spoolAt(kVga, 0.8, 0.0, 0.06);
+  cv::Mat img = drawScene({640, 480}, {{s.x, s.y, s.flange_r, 0.0}});
+  // A bright disc of hole size, 30 px from the flange centre (a reflection, say).
+  cv::Mat gray;
+  cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
+  spool_vision::test::fillEllipse(gray, s.x + 30, s.y, s.hole_r, s.hole_r, 235);
+  cv::cvtColor(gray, img, cv::COLOR_GRAY2BGR);
+  SpoolDetector mcht;
+  const SpoolDetection a = mcht.detect(img, PixelFormat::kBgr8);
+  ASSERT_TRUE(a.detected);
+  EXPECT_FALSE(a.hole_detected);
+
+  DetectorParams p;
+  p.matcher.mode = MatchMode::kCht;
+  SpoolDetector cht(p);
+  const SpoolDetection b = cht.detect(img, PixelFormat::kBgr8);
+  ASSERT_TRUE(b.detected);
+  ASSERT_TRUE(b.hole_detected);
+  EXPECT_NEAR(b.hole.x, s.x + 30, 1.0);
+}
+
+TEST(SpoolDetector, NothingOnAnEmptyShelf)
+{
+  SpoolDetector detector;
+  const SpoolDetection d = detector.detect(drawScene({640, 480}, {}), PixelFormat::kBgr8);
+  EXPECT_FALSE(d.detected);
+  EXPECT_FALSE(d.hole_detected);
+  EXPECT_TRUE(std::isnan(d.distance));
+  EXPECT_TRUE(std::isnan(d.yaw));
+  EXPECT_EQ(d.confidence, 0.0);
+}
+
+TEST(SpoolDetector, RejectsBadImagesClearly)
+{
+  SpoolDetector detector;
+  EXPECT_THROW(detector.detect(cv::Mat(), PixelFormat::kBgr8), std::invalid_argument);
+  EXPECT_THROW(detector.detect(cv::Mat(10, 10, CV_8UC3), PixelFormat::kBgr8), std::invalid_argument);
+  EXPECT_THROW(detector.detect(cv::Mat(120, 160, CV_8UC1), PixelFormat::kBgr8), std::invalid_argument);
+  EXPECT_THROW(detector.setCamera(CameraIntrinsics()), std::invalid_argument);
+  DetectorParams bad;
+  bad.hough.sensitivity = 2.0;
+  EXPECT_THROW(detector.setParams(bad), spool_vision::ParamError);
+  EXPECT_DOUBLE_EQ(detector.params().hough.sensitivity, DetectorParams().hough.sensitivity);
+}
+
+TEST(SpoolDetector, SteadyStateDoesNotAllocate)
+{
+  SpoolDetector detector;
+  const cv::Mat img = drawScene({640, 480}, {spoolAt(kVga, 0.7, 0.01, 0.06)});
+  detector.detect(img, PixelFormat::kBgr8);  // warm-up sizes every buffer
+  detector.detect(img, PixelFormat::kBgr8);
+  g_allocations = 0;
+  g_counting = true;
+  const SpoolDetection d = detector.detect(img, PixelFormat::kBgr8);
+  g_counting = false;
+  EXPECT_TRUE(d.detected);
+  EXPECT_EQ(g_allocations.load(), 0);
+}
