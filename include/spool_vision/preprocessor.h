@@ -1,6 +1,8 @@
 // Stage 1: grayscale, noise filter, optional binarization, morphology and area opening.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "spool_vision/detector_params.h"
@@ -31,7 +33,12 @@ public:
   void areaOpening(const cv::Mat& binary, cv::Mat& out);
 
 private:
+  void gaussian(const cv::Mat& gray, cv::Mat& out);
+
   PreprocessParams params_;
+  std::vector<float> kernel_;
+  cv::Mat rows_;
+  std::vector<float> line_, acc_;
   cv::Mat structuring_element_;
   cv::Mat gray_, filtered_, binary_, morph_, blur_;
   cv::Mat labels_, stats_, centroids_;

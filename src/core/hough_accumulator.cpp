@@ -1,6 +1,7 @@
 #include "spool_vision/hough_accumulator.h"
 
 #include <algorithm>
+#include <array>
 #include <bitset>
 #include <cmath>
 
@@ -27,14 +28,26 @@ float centreSign(Polarity polarity)
 
 double visibleRimFraction(double x, double y, double r, cv::Size image_size)
 {
+  // Unit-circle samples computed once; this runs for every radius bin of every peak.
+  static const auto kUnit = [] {
+    std::array<cv::Point2d, kRimSamples> unit;
+    for (int i = 0; i < kRimSamples; ++i)
+    {
+      const double a = (i + 0.5) * 2.0 * kPi / kRimSamples;
+      unit[static_cast<size_t>(i)] = {std::cos(a), std::sin(a)};
+    }
+    return unit;
+  }();
+  // Whole circle inside: the common case needs no sampling.
+  if (x - r >= -0.5 && y - r >= -0.5 && x + r <= image_size.width - 0.5 && y + r <= image_size.height - 0.5)
+    return 1.0;
   const double max_x = image_size.width - 0.5;
   const double max_y = image_size.height - 0.5;
   int inside = 0;
-  for (int i = 0; i < kRimSamples; ++i)
+  for (const auto& u : kUnit)
   {
-    const double a = (i + 0.5) * 2.0 * kPi / kRimSamples;
-    const double px = x + r * std::cos(a);
-    const double py = y + r * std::sin(a);
+    const double px = x + r * u.x;
+    const double py = y + r * u.y;
     inside += (px >= -0.5 && px <= max_x && py >= -0.5 && py <= max_y) ? 1 : 0;
   }
   return static_cast<double>(inside) / kRimSamples;
@@ -43,43 +56,64 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size)
 void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges)
 {
   edges.clear();
-  cv::Sobel(gray8, gx_, CV_16S, 1, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-  cv::Sobel(gray8, gy_, CV_16S, 0, 1, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-  mag_.create(gray8.size(), CV_32F);
-  for (int y = 0; y < gray8.rows; ++y)
+  // 3x3 Sobel and squared magnitude in one pass with replicated borders (cv::Sobel allocates
+  // its filter engine on every call; this path reuses its buffers).
+  const int w = gray8.cols;
+  const int h = gray8.rows;
+  gx_.create(h, w, CV_16S);
+  gy_.create(h, w, CV_16S);
+  mag_.create(h, w, CV_32S);
+  for (int y = 0; y < h; ++y)
   {
-    const short* gx = gx_.ptr<short>(y);
-    const short* gy = gy_.ptr<short>(y);
-    float* m = mag_.ptr<float>(y);
-    for (int x = 0; x < gray8.cols; ++x)
-      m[x] = std::sqrt(static_cast<float>(gx[x] * gx[x] + gy[x] * gy[x]));
+    const uchar* up = gray8.ptr<uchar>(std::max(y - 1, 0));
+    const uchar* mid = gray8.ptr<uchar>(y);
+    const uchar* down = gray8.ptr<uchar>(std::min(y + 1, h - 1));
+    short* gx = gx_.ptr<short>(y);
+    short* gy = gy_.ptr<short>(y);
+    int* m = mag_.ptr<int>(y);
+    auto at = [&](int x, int l, int r) {
+      const int dx = (up[r] + 2 * mid[r] + down[r]) - (up[l] + 2 * mid[l] + down[l]);
+      const int dy = (down[l] + 2 * down[x] + down[r]) - (up[l] + 2 * up[x] + up[r]);
+      gx[x] = static_cast<short>(dx);
+      gy[x] = static_cast<short>(dy);
+      m[x] = dx * dx + dy * dy;
+    };
+    at(0, 0, std::min(1, w - 1));
+    for (int x = 1; x + 1 < w; ++x)
+      at(x, x - 1, x + 1);
+    at(w - 1, std::max(w - 2, 0), w - 1);
   }
 
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
+  const int t2 = static_cast<int>(t * t);
   const size_t step = mag_.step1();
-  for (int y = 1; y + 1 < gray8.rows; ++y)
+  for (int y = 1; y + 1 < h; ++y)
   {
     const short* gxr = gx_.ptr<short>(y);
     const short* gyr = gy_.ptr<short>(y);
-    const float* m = mag_.ptr<float>(y);
-    for (int x = 1; x + 1 < gray8.cols; ++x)
+    const int* m = mag_.ptr<int>(y);
+    for (int x = 1; x + 1 < w; ++x)
     {
-      const float c = m[x];
-      if (c < t)
+      const int c2 = m[x];
+      if (c2 < t2)
         continue;
+      const float c = std::sqrt(static_cast<float>(c2));
       const float dx = gxr[x] / c;
       const float dy = gyr[x] / c;
       // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood.
       const int sx = std::abs(dx) > 0.3827f ? (dx > 0 ? 1 : -1) : 0;
       const int sy = std::abs(dy) > 0.3827f ? (dy > 0 ? 1 : -1) : 0;
-      const float before = m[x - sx - static_cast<std::ptrdiff_t>(sy * step)];
-      const float after = m[x + sx + static_cast<std::ptrdiff_t>(sy * step)];
-      if (c < before || c <= after)
+      const std::ptrdiff_t offset_next = sx + static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(step);
+      const int before2 = m[x - offset_next];
+      const int after2 = m[x + offset_next];
+      if (c2 < before2 || c2 <= after2)
         continue;
       // Parabola through the three magnitudes puts the edge between pixels.
+      const float before = std::sqrt(static_cast<float>(before2));
+      const float after = std::sqrt(static_cast<float>(after2));
       const float denom = before - 2.0f * c + after;
-      const float offset = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
-      edges.push_back({x + offset * sx, y + offset * sy, dx, dy});
+      const float sub = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
+      edges.push_back({x + sub * sx, y + sub * sy, dx, dy});
     }
   }
 }
@@ -120,7 +154,21 @@ void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSear
 void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
 {
   peaks_.clear();
-  cv::GaussianBlur(votes_, smoothed_, cv::Size(3, 3), 0.8, 0.8, cv::BORDER_CONSTANT);
+  // 3x3 binomial smoothing (zero border) spreads each vote over its neighbours, so a centre
+  // whose votes straddle cells still forms one peak.
+  smoothed_.create(votes_.size(), CV_32F);
+  std::fill(smoothed_.ptr<float>(), smoothed_.ptr<float>() + smoothed_.total(), 0.0f);
+  for (int y = 1; y + 1 < votes_.rows; ++y)
+  {
+    const float* a = votes_.ptr<float>(y - 1);
+    const float* b = votes_.ptr<float>(y);
+    const float* c = votes_.ptr<float>(y + 1);
+    float* out = smoothed_.ptr<float>(y);
+    for (int x = 1; x + 1 < votes_.cols; ++x)
+      out[x] = (a[x - 1] + 2 * a[x] + a[x + 1] + 2 * (b[x - 1] + 2 * b[x] + b[x + 1]) + c[x - 1] + 2 * c[x] +
+                c[x + 1]) *
+               (1.0f / 16.0f);
+  }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
   const float floor_votes =
       static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
@@ -268,10 +316,13 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
     {
       const double vx = e.x - cx;
       const double vy = e.y - cy;
-      const double rho = std::hypot(vx / semi_x, vy / semi_y);
+      // sqrt, not std::hypot: this runs for every edge of every candidate (hypot is slow).
+      const double nx = vx / semi_x;
+      const double ny = vy / semi_y;
+      const double rho = std::sqrt(nx * nx + ny * ny);
       if (std::abs(rho - 1.0) * mean_r > band)
         continue;
-      const double d = std::hypot(vx, vy);
+      const double d = std::sqrt(vx * vx + vy * vy);
       if (-sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
         continue;
       const double u = vx * scale;
@@ -361,10 +412,10 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   const int cols = static_cast<int>(std::ceil(window.width / cell_)) + 3;
   const int rows = static_cast<int>(std::ceil(window.height / cell_)) + 3;
   votes_.create(rows, cols, CV_32F);
-  votes_.setTo(0.0f);
+  std::fill(votes_.ptr<float>(), votes_.ptr<float>() + votes_.total(), 0.0f);  // setTo allocates
 
   vote(edges, search);
-  findPeaks(search, 3 * search.max_circles);
+  findPeaks(search, 2 * search.max_circles);
 
   for (const Peak& peak : peaks_)
   {

@@ -1,5 +1,7 @@
 #include "spool_vision/preprocessor.h"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -27,6 +29,19 @@ int expectedType(PixelFormat format)
   return -1;
 }
 
+// ITU-R BT.601 luma in 14-bit fixed point (the weights cv::cvtColor uses).
+template <int kChannels, int kRed, int kBlue>
+void lumaRows(const cv::Mat& image, cv::Mat& gray)
+{
+  for (int y = 0; y < image.rows; ++y)
+  {
+    const uchar* in = image.ptr<uchar>(y);
+    uchar* out = gray.ptr<uchar>(y);
+    for (int x = 0; x < image.cols; ++x, in += kChannels)
+      out[x] = static_cast<uchar>((in[kRed] * 4899 + in[1] * 9617 + in[kBlue] * 1868 + 8192) >> 14);
+  }
+}
+
 cv::Mat diskElement(int radius)
 {
   return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1));
@@ -42,6 +57,67 @@ void Preprocessor::setParams(const PreprocessParams& params)
 {
   params_ = params;
   structuring_element_ = diskElement(params_.morphology_radius);
+  // Gaussian taps out to 3 sigma, normalised.
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * params_.filter_sigma)));
+  kernel_.resize(static_cast<size_t>(2 * radius + 1));
+  float sum = 0.0f;
+  for (int i = -radius; i <= radius; ++i)
+    sum += kernel_[static_cast<size_t>(i + radius)] =
+        static_cast<float>(std::exp(-0.5 * i * i / (params_.filter_sigma * params_.filter_sigma)));
+  for (float& w : kernel_)
+    w /= sum;
+}
+
+void Preprocessor::gaussian(const cv::Mat& gray, cv::Mat& out)
+{
+  // Separable blur with replicated borders, written out so that the per-frame path reuses
+  // its buffers (cv::GaussianBlur allocates filter engines on every call).
+  const int radius = static_cast<int>(kernel_.size() / 2);
+  const int w = gray.cols;
+  const int h = gray.rows;
+  rows_.create(h, w, CV_32F);
+  line_.resize(static_cast<size_t>(w + 2 * radius));
+  acc_.resize(static_cast<size_t>(w));
+  for (int y = 0; y < h; ++y)
+  {
+    const uchar* in = gray.ptr<uchar>(y);
+    for (int x = -radius; x < w + radius; ++x)
+      line_[static_cast<size_t>(x + radius)] = in[std::clamp(x, 0, w - 1)];
+    // Symmetric taps: one multiply per pair of pixels.
+    float* row = rows_.ptr<float>(y);
+    const float* centre = line_.data() + radius;
+    const float w0 = kernel_[static_cast<size_t>(radius)];
+    for (int x = 0; x < w; ++x)
+      row[x] = w0 * centre[x];
+    for (int k = 1; k <= radius; ++k)
+    {
+      const float wk = kernel_[static_cast<size_t>(radius + k)];
+      const float* left = centre - k;
+      const float* right = centre + k;
+      for (int x = 0; x < w; ++x)
+        row[x] += wk * (left[x] + right[x]);
+    }
+  }
+  out.create(h, w, CV_8U);
+  for (int y = 0; y < h; ++y)
+  {
+    float* acc = acc_.data();
+    const float* centre = rows_.ptr<float>(y);
+    const float w0 = kernel_[static_cast<size_t>(radius)];
+    for (int x = 0; x < w; ++x)
+      acc[x] = 0.5f + w0 * centre[x];  // +0.5 rounds on the truncation below
+    for (int k = 1; k <= radius; ++k)
+    {
+      const float wk = kernel_[static_cast<size_t>(radius + k)];
+      const float* above = rows_.ptr<float>(std::max(y - k, 0));
+      const float* below = rows_.ptr<float>(std::min(y + k, h - 1));
+      for (int x = 0; x < w; ++x)
+        acc[x] += wk * (above[x] + below[x]);
+    }
+    uchar* dst = out.ptr<uchar>(y);
+    for (int x = 0; x < w; ++x)
+      dst[x] = static_cast<uchar>(std::min(acc_[static_cast<size_t>(x)], 255.0f));
+  }
 }
 
 void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray)
@@ -52,6 +128,7 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
     throw std::invalid_argument("image type " + cv::typeToString(image.type()) +
                                 " does not match its pixel format (expected " +
                                 cv::typeToString(expectedType(format)) + ")");
+  gray.create(image.size(), CV_8U);
   switch (format)
   {
     case PixelFormat::kMono8:
@@ -61,16 +138,16 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
       image.convertTo(gray, CV_8U, 1.0 / 257.0);
       break;
     case PixelFormat::kBgr8:
-      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+      lumaRows<3, 2, 0>(image, gray);
       break;
     case PixelFormat::kRgb8:
-      cv::cvtColor(image, gray, cv::COLOR_RGB2GRAY);
+      lumaRows<3, 0, 2>(image, gray);
       break;
     case PixelFormat::kBgra8:
-      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+      lumaRows<4, 2, 0>(image, gray);
       break;
     case PixelFormat::kRgba8:
-      cv::cvtColor(image, gray, cv::COLOR_RGBA2GRAY);
+      lumaRows<4, 0, 2>(image, gray);
       break;
   }
 }
@@ -81,8 +158,7 @@ void Preprocessor::filter(const cv::Mat& gray, cv::Mat& out)
   switch (params_.filter)
   {
     case FilterType::kGaussian:
-      cv::GaussianBlur(gray, out, cv::Size(), params_.filter_sigma, params_.filter_sigma,
-                       cv::BORDER_REPLICATE);
+      gaussian(gray, out);
       break;
     case FilterType::kMedian:
       cv::medianBlur(gray, out, k);
@@ -92,8 +168,7 @@ void Preprocessor::filter(const cv::Mat& gray, cv::Mat& out)
       break;
     case FilterType::kUnsharp:
       // out = gray + amount * (gray - blur(gray)), saturated to 8 bit.
-      cv::GaussianBlur(gray, blur_, cv::Size(), params_.filter_sigma, params_.filter_sigma,
-                       cv::BORDER_REPLICATE);
+      gaussian(gray, blur_);
       cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur_, -params_.unsharp_amount, 0.0,
                       out);
       break;
