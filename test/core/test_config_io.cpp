@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iterator>
 
 #include <yaml-cpp/yaml.h>
 
@@ -39,6 +40,15 @@ TEST(ConfigIo, DefaultYamlListsEveryKeyWithTheBuiltInValue)
         << spec.key;
   }
   EXPECT_EQ(root.size(), spool_vision::paramSpecs().size());
+}
+
+TEST(ConfigIo, ReadmeDocumentsEveryKey)
+{
+  std::ifstream in(kConfigDir + "/../README.md");
+  const std::string readme((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(readme.empty());
+  for (const auto& spec : spool_vision::paramSpecs())
+    EXPECT_NE(readme.find("| `" + spec.key + "` |"), std::string::npos) << spec.key << " is missing from README.md";
 }
 
 TEST(ConfigIo, SeedYamlIsTheThesisPipeline)
