@@ -76,7 +76,9 @@ void SpoolGeometry::measure(SpoolDetection& d) const
   // The puller reference is placed at the flange's depth, where the hole is.
   const double depth = depthFromDiameter(2.0 * d.flange.r_vertical);
   d.reference = reference(depth);
-  d.yaw = yaw(d.flange.x, d.reference.x);
+  // Under perspective the flange rim's ellipse centre drifts from the spool's true centre
+  // (about f R^2 sin(b) cos(b) / Z^2); the small hole's centre stays within ~0.1 px of it.
+  d.yaw = yaw(d.hole_detected ? d.hole.x : d.flange.x, d.reference.x);
   d.lateral_offset = d.distance * std::tan(d.yaw);
 
   const double tol = params_.overlap_tolerance;

@@ -78,20 +78,17 @@ TEST(FocalCalibration, RejectsBadInput)
 
 TEST(FocalCalibration, CsvUnitsAndErrors)
 {
-  const std::string mm = writeTempCsv("focal_mm.csv", "# comment\ndistance_mm, diameter_px\n"
-                                                      "1000, 70\n\n500 , 140\n");
+  const std::string mm = writeTempCsv("focal_mm.csv",
+                                      "# comment\ndistance_mm, diameter_px\n"
+                                      "1000, 70\n\n500 , 140\n");
   const std::vector<sv::FocalSample> samples = sv::loadFocalSamplesCsv(mm);
   ASSERT_EQ(samples.size(), 2u);
   EXPECT_DOUBLE_EQ(samples[0].distance, 1.0);
   EXPECT_DOUBLE_EQ(samples[1].distance, 0.5);
   EXPECT_DOUBLE_EQ(samples[1].diameter_px, 140.0);
 
-  EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_nohead.csv", "1.0,70\n")),
-               std::runtime_error);
-  EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_bad.csv", "distance_m,d_px\n1.0,x\n")),
-               std::runtime_error);
-  EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_empty.csv", "distance_m,d_px\n")),
-               std::runtime_error);
-  EXPECT_THROW(sv::loadFocalSamplesCsv(::testing::TempDir() + "no_such_file.csv"),
-               std::runtime_error);
+  EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_nohead.csv", "1.0,70\n")), std::runtime_error);
+  EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_bad.csv", "distance_m,d_px\n1.0,x\n")), std::runtime_error);
+  EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_empty.csv", "distance_m,d_px\n")), std::runtime_error);
+  EXPECT_THROW(sv::loadFocalSamplesCsv(::testing::TempDir() + "no_such_file.csv"), std::runtime_error);
 }

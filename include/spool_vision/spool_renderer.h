@@ -1,0 +1,204 @@
+// Synthetic shelf-of-spools renderer with exact ground truth (ROS-free: OpenCV + Eigen only).
+//
+// World frame: x right along the shelf, y up (floor at y = 0), z from the camera side into the
+// shelf. The target spool's axis is the line x = 0, y = kHoleHeight; its front flange face lies
+// in the plane z = 0 and the spool extends to z = bore_length, the back wall stands behind it.
+// Every surface is either perpendicular or parallel to z, which keeps ray casting cheap.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+/// The thesis' four lamp switch conditions (§3.2, Fig. 3.5).
+enum class LampCondition
+{
+  kS1S2,  ///< 108-126 lx
+  kS1S3,  ///< 98-121 lx
+  kS2S3,  ///< 140-170 lx
+  kAll    ///< 179-205 lx
+};
+
+/// What stands in the target slot.
+enum class SceneKind
+{
+  kSpool,      ///< a copper-wire spool (positive)
+  kEmptySlot,  ///< nothing: shelf board and back wall
+  kPlate,      ///< a plate standing on its edge, facing the camera
+  kTapeRoll,   ///< an adhesive tape roll standing on its edge (has a see-through core)
+  kCan         ///< a tin can lying with its lid towards the camera
+};
+
+const char* toString(LampCondition lamps);
+const char* toString(SceneKind kind);
+/// Illuminance range (lx) the thesis measured for a condition.
+void lampRange(LampCondition lamps, double& min_lux, double& max_lux);
+
+/// Where the camera is. Position and orientation are relative to the target slot's hole axis.
+struct CameraPose
+{
+  double distance = 0.8;  ///< m, optical centre to the flange face centre (Euclidean)
+  double lateral = 0.0;   ///< m, camera x relative to the hole axis (positive = camera right)
+  double height = 0.06;   ///< m, camera above the hole axis
+  double yaw = 0.0;       ///< rad, rotation about the vertical axis, positive turns right
+  double pitch = 0.0;     ///< rad, positive tilts the optical axis down
+};
+
+/// One spool standing beside the target slot.
+struct NeighbourSpool
+{
+  int side = 1;               ///< -1 left, +1 right
+  double gap = 0.03;          ///< m, between its flange rim and the next flange rim inwards
+  double depth_offset = 0.0;  ///< m, its flange face z (positive = set back)
+};
+
+/// Everything about a scene except the camera pose. Deterministic: the same parameters
+/// (including seed) render the same image.
+struct SceneParams
+{
+  SceneKind kind = SceneKind::kSpool;
+  LampCondition lamps = LampCondition::kAll;
+  double illuminance = 0.0;  ///< lx; 0 = the middle of the condition's range
+  double exposure = 1.0;     ///< camera gain multiplier
+
+  // Spool (thesis spool: 35 cm flange, 3.6 cm bore through a ~20 cm hub).
+  double flange_diameter = 0.35;     ///< m
+  double hole_diameter = 0.036;      ///< m
+  double bore_length = 0.20;         ///< m, front flange face to back flange face
+  double flange_thickness = 0.012;   ///< m
+  double winding_diameter = 0.28;    ///< m, outer diameter of the copper winding
+  double flange_reflectance = 0.06;  ///< black plastic
+  double bore_reflectance = 0.2;     ///< bore wall at mid depth (darker towards the front)
+  bool ribs = true;                  ///< concentric moulded ribs on the flange face
+  bool label = false;                ///< paper label on the flange face
+  double label_angle = 0.8;          ///< rad, direction of the label centre from the axis
+  double label_radius = 0.11;        ///< m, label centre from the axis
+
+  std::vector<NeighbourSpool> neighbours;
+
+  // Negative objects (kPlate, kTapeRoll, kCan): size and position in the slot.
+  double object_radius = 0.11;             ///< m
+  double object_offset_x = 0.0;            ///< m, from the slot centre
+  double object_depth = 0.02;              ///< m, z of its front face
+  cv::Vec3d object_colour{0.8, 0.8, 0.8};  ///< BGR reflectance
+
+  // Shelf.
+  double wall_gap = 0.10;                   ///< m, back flange face to back wall
+  double board_front = -0.02;               ///< m, z of the shelf boards' front edge
+  double board_thickness = 0.025;           ///< m
+  double top_board_clearance = 0.08;        ///< m, flange top to the upper board
+  cv::Vec3d wall_colour{0.70, 0.74, 0.76};  ///< BGR reflectance
+
+  // Camera imperfections.
+  double blur_sigma = 0.5;   ///< px, optical blur (0 = none)
+  double noise_sigma = 2.0;  ///< DN at mid grey (8 bit), grows with the signal (shot noise)
+  int jpeg_quality = 0;      ///< 1-100, 0 = no JPEG round trip
+  double vignetting = 0.1;   ///< brightness loss in the image corners
+  std::uint64_t seed = 1;    ///< texture and noise
+};
+
+/// A 3D circle (rim) as it appears in the image.
+struct ProjectedCircle
+{
+  double x = 0.0;  ///< px, centre of the projected ellipse (what a circle fit finds)
+  double y = 0.0;
+  double centre_x = 0.0;  ///< px, projection of the circle's 3D centre
+  double centre_y = 0.0;
+  double r = 0.0;                 ///< px, mean of the semi-axes
+  double semi_major = 0.0;        ///< px
+  double semi_minor = 0.0;        ///< px
+  double angle = 0.0;             ///< rad, major axis from the image u axis
+  double r_vertical = 0.0;        ///< px, half the vertical extent
+  double visible_fraction = 0.0;  ///< fraction of the rim inside the image
+};
+
+/// A spool beside the target slot, measured the way the target is.
+struct NeighbourTruth
+{
+  ProjectedCircle flange;  ///< its front flange rim
+  double distance = 0.0;   ///< m, optical centre to its flange face centre
+  double yaw = 0.0;        ///< rad, bearing of its flange centre from the puller column
+};
+
+/// Exact ground truth of one rendered frame. Undefined numbers are NaN.
+struct GroundTruth
+{
+  SceneKind kind = SceneKind::kSpool;
+  LampCondition lamps = LampCondition::kAll;
+  double illuminance = 0.0;  ///< lx
+  CameraPose pose;
+  CameraIntrinsics camera;
+
+  std::optional<ProjectedCircle> flange;   ///< front flange rim; only for a spool
+  std::optional<ProjectedCircle> hole;     ///< front opening of the bore; only for a spool
+  double distance = SpoolDetection::kNaN;  ///< m, optical centre to the flange face centre
+  /// rad, atan((u_flange - u_ref) / fx) with u_flange the projected 3D flange centre and u_ref
+  /// the projection of the puller axis point at the flange depth; positive = spool appears right.
+  double yaw = SpoolDetection::kNaN;
+  double lateral_offset = SpoolDetection::kNaN;                       ///< m, distance * tan(yaw)
+  cv::Point2d reference{SpoolDetection::kNaN, SpoolDetection::kNaN};  ///< px, puller axis
+  bool flange_half_visible = false;           ///< at least half of the flange rim inside the image
+  bool hole_in_view = false;                  ///< the whole front opening inside the image
+  bool bore_visible = false;                  ///< the lit wall shows through the bore
+  double hole_lit_fraction = 0.0;             ///< lit part of the front opening's area, 0..1
+  double puller_miss = SpoolDetection::kNaN;  ///< m, puller axis to hole axis at the flange
+  double axis_angle = SpoolDetection::kNaN;   ///< rad, between puller and spool axes
+  /// Physically ready to insert: puller_miss <= t_f, |yaw| <= 0.25 deg, axis_angle <= 0.25 deg
+  /// and 0.5 m <= distance <= 0.6 m.
+  bool aligned = false;
+  std::vector<NeighbourTruth> neighbours;  ///< spools beside the slot (a detector may see them)
+  bool spool_centre_in_view = false;       ///< any spool's flange centre (target or neighbour) in view
+};
+
+struct RenderedFrame
+{
+  cv::Mat image;  ///< CV_8UC3, BGR
+  GroundTruth truth;
+};
+
+/// Ray casts the scene: one ray per pixel centre, 4x4 rays on pixels where surfaces meet.
+class SpoolRenderer
+{
+public:
+  /// Throws std::invalid_argument on invalid intrinsics.
+  explicit SpoolRenderer(const CameraIntrinsics& camera);
+
+  const CameraIntrinsics& camera() const
+  {
+    return camera_;
+  }
+
+  /// Throws std::invalid_argument when the pose is impossible (distance below the offsets,
+  /// the target's front flange not entirely in front of the camera).
+  RenderedFrame render(const SceneParams& scene, const CameraPose& pose) const;
+
+  /// The ground truth alone (cheap).
+  GroundTruth groundTruth(const SceneParams& scene, const CameraPose& pose) const;
+
+  /// Hole height above the floor (m) and the puller offset in the camera frame (m).
+  static constexpr double kHoleHeight = 1.0;
+  static constexpr double kPullerOffsetY = 0.06;
+  static constexpr double kPullerDiameter = 0.031;
+  static constexpr double kAlignedMaxAngle = 0.004363323129985824;  ///< rad (0.25 deg)
+  static constexpr double kAlignedDistanceMin = 0.5;
+  static constexpr double kAlignedDistanceMax = 0.6;
+
+private:
+  CameraIntrinsics camera_;
+};
+
+/// Random but plausible scene parameters of the given kind (lamps, neighbours, label, ribs,
+/// imperfections, object size). Deterministic in `seed`.
+SceneParams randomScene(SceneKind kind, std::uint64_t seed);
+
+/// One JSON object (single line) describing `truth`; NaN and missing circles are null.
+std::string groundTruthToJson(const GroundTruth& truth);
+
+}  // namespace spool_vision

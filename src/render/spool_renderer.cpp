@@ -1,0 +1,1034 @@
+#include "spool_vision/spool_renderer.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace spool_vision
+{
+namespace
+{
+using Vec3 = Eigen::Vector3d;
+using Mat3 = Eigen::Matrix3d;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kEps = 1e-9;
+constexpr int kSuperSamples = 4;  // per axis, on pixels where surfaces meet
+constexpr int kRimSamples = 720;
+
+enum class Material : std::uint8_t
+{
+  kWall,
+  kBoard,
+  kFlange,
+  kCopper,
+  kBore,
+  kObject,
+  kObjectRim,
+  kCardboard,
+  kMetal
+};
+
+// A disc or annulus in the plane z = const, facing the camera (-z).
+struct Disc
+{
+  double cx, cy, z, r_in2, r_out2;
+  Material material;
+  int owner;      // index into Geometry::spools, -1 for other objects
+  bool textured;  // front flange face: ribs and label
+};
+
+// A cylinder surface around an axis parallel to z; `inward` surfaces are seen from inside.
+struct Tube
+{
+  double cx, cy, z0, z1, r;
+  bool inward;
+  Material material;
+};
+
+struct Group
+{
+  Vec3 centre = Vec3::Zero();
+  double radius2 = 0.0;  // bounding sphere
+  std::vector<Disc> discs;
+  std::vector<Tube> tubes;
+  int first_id = 0;
+};
+
+struct SpoolInfo
+{
+  double cx, cy;
+  double label_angle;
+};
+
+struct Hit
+{
+  double t = kInf;
+  int id = -1;
+  Material material = Material::kWall;
+  Vec3 normal = Vec3::Zero();
+  int owner = -1;
+  bool textured = false;
+  double z_front = 0.0;  // tubes: where the surface starts, for the bore's depth shading
+};
+
+// Lamps as seen from the shelf: S1 left, S2 centre, S3 right, all above and in front. The
+// nominal shares solve the thesis' pairwise readings (S1+S2 117, S1+S3 110, S2+S3 155 lx).
+const std::array<Vec3, 3>& lampDirections()
+{
+  static const std::array<Vec3, 3> dirs = {Vec3(-1.0, 1.3, -1.4).normalized(), Vec3(0.1, 1.4, -1.3).normalized(),
+                                           Vec3(1.1, 1.2, -1.2).normalized()};
+  return dirs;
+}
+constexpr std::array<double, 3> kLampShare = {36.0, 81.0, 74.0};
+
+constexpr double kReferenceLux = 200.0;  // exposure that puts a 0.75 white wall near 190 DN
+constexpr double kAmbientFraction = 0.35;
+constexpr double kFrontCosine = 0.6;  // typical n.l of a face towards the camera
+
+// Front flange centres of the neighbour spools, packed outwards from the slot.
+std::vector<Vec3> neighbourCentres(const SceneParams& p)
+{
+  std::vector<Vec3> centres;
+  double left = 0.0;
+  double right = 0.0;
+  for (const NeighbourSpool& n : p.neighbours)
+  {
+    double& edge = n.side < 0 ? left : right;
+    edge += p.flange_diameter + n.gap;
+    centres.emplace_back(n.side < 0 ? -edge : edge, SpoolRenderer::kHoleHeight, n.depth_offset);
+  }
+  return centres;
+}
+
+class Scene
+{
+public:
+  explicit Scene(const SceneParams& params) : p_(params)
+  {
+    build();
+    setupLights();
+  }
+
+  // Nearest hit along o + t d (d need not be unit length).
+  Hit trace(const Vec3& o, const Vec3& d) const
+  {
+    // Divisions are the costly part of the tests below: share them across primitives.
+    const Vec3 inv = d.cwiseInverse();
+    const double inv_d2 = 1.0 / d.squaredNorm();
+    const double a_xy = d.x() * d.x() + d.y() * d.y();
+    const double inv_a_xy = a_xy > kEps ? 1.0 / a_xy : 0.0;
+    Hit hit;
+    if (d.z() > kEps)
+    {
+      hit.t = (wall_z_ - o.z()) * inv.z();
+      hit.id = 0;
+      hit.material = Material::kWall;
+      hit.normal = Vec3(0, 0, -1);
+    }
+    for (std::size_t i = 0; i < boards_.size(); ++i)
+      intersectBox(o, d, inv, boards_[i], static_cast<int>(i) + 1, hit);
+    for (const Group& g : groups_)
+    {
+      const Vec3 w = g.centre - o;
+      const double tc = w.dot(d) * inv_d2;
+      if ((w - tc * d).squaredNorm() > g.radius2)
+        continue;
+      int id = g.first_id;
+      for (const Disc& disc : g.discs)
+        intersectDisc(o, d, inv.z(), disc, id++, hit);
+      for (const Tube& tube : g.tubes)
+        intersectTube(o, d, a_xy, inv_a_xy, tube, id++, hit);
+    }
+    return hit;
+  }
+
+  // Linear BGR radiance (1 = full scale) seen along d; `sub` refines the surface id where the
+  // texture has sharp edges (label), so anti-aliasing treats them as edges too. `footprint`
+  // is the pixel's size (m) at the hit, for textures that filter themselves.
+  Vec3 shade(const Vec3& o, const Vec3& d, const Hit& hit, double footprint, int& sub) const
+  {
+    sub = 0;
+    const Vec3 pt = o + hit.t * d;
+    const Vec3 view = -d.normalized();
+    switch (hit.material)
+    {
+      case Material::kWall:
+      {
+        const double pattern = 1.0 + 0.05 * std::sin(7.1 * pt.x() + 0.3) * std::sin(5.3 * pt.y());
+        double shadow = 1.0;
+        if (pt.y() < lower_board_bottom_)
+          shadow = 0.45;  // inside the compartment below: the board shades it
+        else if (pt.y() > upper_board_bottom_)
+          shadow = 0.6;
+        sub = shadow < 1.0 ? 1 : 0;
+        return toVec(p_.wall_colour) * pattern * shadow * diffuse(hit.normal);
+      }
+      case Material::kBoard:
+      {
+        const double grain = 1.0 + 0.08 * std::sin(40.0 * pt.x() + 3.0 * std::sin(13.0 * pt.z()));
+        return Vec3(0.38, 0.52, 0.62) * grain * diffuse(hit.normal);
+      }
+      case Material::kFlange:
+        return flangeColour(pt, hit, footprint, sub) * diffuse(hit.normal) +
+               Vec3::Constant(specular(hit.normal, view, 0.02, 5));
+      case Material::kCopper:
+        return Vec3(0.18, 0.42, 0.75) * diffuse(hit.normal) +
+               Vec3(0.35, 0.55, 0.8) * specular(hit.normal, view, 0.35, 5);
+      case Material::kBore:
+      {
+        // Light enters from the back opening, so the wall darkens towards the front rim but
+        // stays lighter than the flange face.
+        const double depth = std::clamp((pt.z() - hit.z_front) / p_.bore_length, 0.0, 1.0);
+        return Vec3::Constant(p_.bore_reflectance * (0.7 + 0.6 * depth) * light_scale_);
+      }
+      case Material::kObject:
+        return toVec(p_.object_colour) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.05, 5));
+      case Material::kObjectRim:
+        return toVec(p_.object_colour) * 0.8 * diffuse(hit.normal) +
+               Vec3::Constant(specular(hit.normal, view, 0.05, 5));
+      case Material::kCardboard:
+        return Vec3(0.35, 0.5, 0.6) * diffuse(hit.normal);
+      case Material::kMetal:
+      {
+        // Lid with a dark recessed groove and a shiny seamed rim.
+        const double r = std::hypot(pt.x() - object_cx_, pt.y() - object_cy_) / p_.object_radius;
+        double albedo = 0.55;
+        if (r > 0.8 && r < 0.86)
+        {
+          albedo = 0.35;
+          sub = 1;
+        }
+        else if (r >= 0.9)
+        {
+          albedo = 0.7;
+          sub = 2;
+        }
+        return Vec3::Constant(albedo) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.3, 4));
+      }
+    }
+    return Vec3::Zero();
+  }
+
+private:
+  static Vec3 toVec(const cv::Vec3d& v)
+  {
+    return Vec3(v[0], v[1], v[2]);
+  }
+
+  void setupLights()
+  {
+    double lo = 0.0;
+    double hi = 0.0;
+    lampRange(p_.lamps, lo, hi);
+    const double lux = p_.illuminance > 0.0 ? p_.illuminance : 0.5 * (lo + hi);
+    std::array<bool, 3> on{};
+    switch (p_.lamps)
+    {
+      case LampCondition::kS1S2:
+        on = {true, true, false};
+        break;
+      case LampCondition::kS1S3:
+        on = {true, false, true};
+        break;
+      case LampCondition::kS2S3:
+        on = {false, true, true};
+        break;
+      case LampCondition::kAll:
+        on = {true, true, true};
+        break;
+    }
+    double total = 0.0;
+    for (int i = 0; i < 3; ++i)
+      total += on[i] ? kLampShare[i] : 0.0;
+    for (int i = 0; i < 3; ++i)
+      lamp_weight_[i] = on[i] ? kLampShare[i] / total : 0.0;
+    light_scale_ = lux / kReferenceLux;
+  }
+
+  double diffuse(const Vec3& n) const
+  {
+    double direct = 0.0;
+    for (int i = 0; i < 3; ++i)
+      direct += lamp_weight_[i] * std::max(0.0, n.dot(lampDirections()[i]));
+    return light_scale_ * (kAmbientFraction + (1.0 - kAmbientFraction) * direct / kFrontCosine);
+  }
+
+  // Blinn-Phong highlight; the exponent is a power of two so it costs a few squarings.
+  double specular(const Vec3& n, const Vec3& view, double ks, int log2_exponent) const
+  {
+    double s = 0.0;
+    for (int i = 0; i < 3; ++i)
+    {
+      if (lamp_weight_[i] == 0.0)
+        continue;
+      double c = std::max(0.0, n.dot((lampDirections()[i] + view).normalized()));
+      for (int k = 0; k < log2_exponent; ++k)
+        c *= c;
+      s += lamp_weight_[i] * c;
+    }
+    return light_scale_ * ks * s;
+  }
+
+  Vec3 flangeColour(const Vec3& pt, const Hit& hit, double footprint, int& sub) const
+  {
+    const Vec3 black = Vec3::Constant(p_.flange_reflectance);
+    if (!hit.textured)
+      return black;
+    const SpoolInfo& s = spools_[hit.owner];
+    const double x = pt.x() - s.cx;
+    const double y = pt.y() - s.cy;
+    if (p_.label)
+    {
+      // Label frame: `along` runs radially, `across` tangentially.
+      const double ca = std::cos(s.label_angle);
+      const double sa = std::sin(s.label_angle);
+      const double along = x * ca + y * sa - p_.label_radius;
+      const double across = -x * sa + y * ca;
+      if (std::abs(along) < 0.025 && std::abs(across) < 0.035)
+      {
+        // A few printed lines of "text" in the label's middle.
+        const double line = (along + 0.025) / 0.008;
+        const int row = static_cast<int>(line);
+        const bool text = row >= 1 && row <= 4 && line - row < 0.5 && std::abs(across) < 0.028 - 0.004 * row;
+        sub = text ? 3 : 1;
+        return text ? Vec3(0.2, 0.2, 0.22) : Vec3(0.78, 0.82, 0.85);
+      }
+    }
+    if (p_.ribs)
+    {
+      // Each rib's crest catches a little more light. Its 4 mm band is box-filtered over the
+      // pixel footprint, so thin ribs far away blend instead of aliasing.
+      static constexpr std::array<double, 4> kRibRadii = {0.05, 0.08, 0.115, 0.15};
+      constexpr double kHalfWidth = 0.002;
+      const double r = std::hypot(x, y);
+      const double half = 0.5 * std::max(footprint, 1e-4);
+      double coverage = 0.0;
+      for (double rib : kRibRadii)
+        coverage +=
+            std::max(0.0, std::min(r + half, rib + kHalfWidth) - std::max(r - half, rib - kHalfWidth)) / (2.0 * half);
+      return black + Vec3::Constant(0.02 * std::min(coverage, 1.0));
+    }
+    return black;
+  }
+
+  void addSpool(double cx, double z0, double label_angle)
+  {
+    const double cy = SpoolRenderer::kHoleHeight;
+    const double big = 0.5 * p_.flange_diameter;
+    const double hole = 0.5 * p_.hole_diameter;
+    const double wind = 0.5 * p_.winding_diameter;
+    const double len = p_.bore_length;
+    const double th = p_.flange_thickness;
+    const int owner = static_cast<int>(spools_.size());
+    spools_.push_back({cx, cy, label_angle});
+
+    Group g;
+    g.centre = Vec3(cx, cy, z0 + 0.5 * len);
+    g.radius2 = big * big + 0.25 * len * len + 1e-4;
+    g.discs.push_back({cx, cy, z0, hole * hole, big * big, Material::kFlange, owner, true});
+    g.discs.push_back({cx, cy, z0 + len - th, wind * wind, big * big, Material::kFlange, owner, false});
+    g.tubes.push_back({cx, cy, z0, z0 + th, big, false, Material::kFlange});
+    g.tubes.push_back({cx, cy, z0 + th, z0 + len - th, wind, false, Material::kCopper});
+    g.tubes.push_back({cx, cy, z0 + len - th, z0 + len, big, false, Material::kFlange});
+    g.tubes.push_back({cx, cy, z0, z0 + len, hole, true, Material::kBore});
+    addGroup(std::move(g));
+  }
+
+  void addObject()
+  {
+    const double r = p_.object_radius;
+    const double cx = p_.object_offset_x;
+    const double cy = lower_board_top_ + r;  // it stands on the board
+    const double z0 = p_.object_depth;
+    object_cx_ = cx;
+    object_cy_ = cy;
+    Group g;
+    switch (p_.kind)
+    {
+      case SceneKind::kPlate:
+      {
+        const double th = 0.015;
+        g.discs.push_back({cx, cy, z0, 0.0, std::pow(0.75 * r, 2), Material::kObject, -1, false});
+        g.discs.push_back({cx, cy, z0, std::pow(0.75 * r, 2), r * r, Material::kObjectRim, -1, false});
+        g.tubes.push_back({cx, cy, z0, z0 + th, r, false, Material::kObjectRim});
+        g.centre = Vec3(cx, cy, z0);
+        g.radius2 = r * r + th * th + 1e-4;
+        break;
+      }
+      case SceneKind::kTapeRoll:
+      {
+        const double width = 0.03;
+        const double inner = 0.038;  // 76 mm cardboard core
+        const double core = inner + 0.004;
+        g.discs.push_back({cx, cy, z0, core * core, r * r, Material::kObject, -1, false});
+        g.discs.push_back({cx, cy, z0, inner * inner, core * core, Material::kCardboard, -1, false});
+        g.tubes.push_back({cx, cy, z0, z0 + width, r, false, Material::kObject});
+        g.tubes.push_back({cx, cy, z0, z0 + width, inner, true, Material::kCardboard});
+        g.centre = Vec3(cx, cy, z0 + 0.5 * width);
+        g.radius2 = r * r + width * width + 1e-4;
+        break;
+      }
+      case SceneKind::kCan:
+      {
+        const double len = 0.11;
+        g.discs.push_back({cx, cy, z0, 0.0, r * r, Material::kMetal, -1, false});
+        g.tubes.push_back({cx, cy, z0, z0 + len, r, false, Material::kObject});
+        g.centre = Vec3(cx, cy, z0 + 0.5 * len);
+        g.radius2 = r * r + 0.25 * len * len + 1e-4;
+        break;
+      }
+      case SceneKind::kSpool:
+      case SceneKind::kEmptySlot:
+        return;
+    }
+    addGroup(std::move(g));
+  }
+
+  void addGroup(Group g)
+  {
+    g.first_id = next_id_;
+    next_id_ += static_cast<int>(g.discs.size() + g.tubes.size());
+    groups_.push_back(std::move(g));
+  }
+
+  void build()
+  {
+    const double big = 0.5 * p_.flange_diameter;
+    wall_z_ = p_.bore_length + p_.wall_gap;
+    lower_board_top_ = SpoolRenderer::kHoleHeight - big;
+    lower_board_bottom_ = lower_board_top_ - p_.board_thickness;
+    upper_board_bottom_ = SpoolRenderer::kHoleHeight + big + p_.top_board_clearance;
+    boards_ = {{Vec3(-20.0, lower_board_bottom_, p_.board_front), Vec3(20.0, lower_board_top_, wall_z_)},
+               {Vec3(-20.0, upper_board_bottom_, p_.board_front),
+                Vec3(20.0, upper_board_bottom_ + p_.board_thickness, wall_z_)}};
+    next_id_ = 1 + static_cast<int>(boards_.size());
+
+    if (p_.kind == SceneKind::kSpool)
+      addSpool(0.0, 0.0, p_.label_angle);
+    else
+      addObject();
+    int count = 0;
+    for (const Vec3& centre : neighbourCentres(p_))
+      addSpool(centre.x(), centre.z(), p_.label_angle + 1.7 * ++count);
+  }
+
+  static void intersectBox(const Vec3& o, const Vec3& d, const Vec3& inv, const std::array<Vec3, 2>& box, int id,
+                           Hit& hit)
+  {
+    double t0 = 0.0;
+    double t1 = hit.t;
+    int axis = -1;
+    double sign = 0.0;
+    for (int a = 0; a < 3; ++a)
+    {
+      if (std::abs(d[a]) < kEps)
+      {
+        if (o[a] < box[0][a] || o[a] > box[1][a])
+          return;
+        continue;
+      }
+      double ta = (box[0][a] - o[a]) * inv[a];
+      double tb = (box[1][a] - o[a]) * inv[a];
+      double s = -1.0;  // normal of the entry face
+      if (ta > tb)
+      {
+        std::swap(ta, tb);
+        s = 1.0;
+      }
+      if (ta > t0)
+      {
+        t0 = ta;
+        axis = a;
+        sign = s;
+      }
+      t1 = std::min(t1, tb);
+      if (t0 > t1)
+        return;
+    }
+    if (axis < 0)
+      return;  // the camera is inside the box
+    hit.t = t0;
+    hit.id = id;
+    hit.material = Material::kBoard;
+    hit.normal = Vec3::Zero();
+    hit.normal[axis] = sign;
+    hit.owner = -1;
+  }
+
+  static void intersectDisc(const Vec3& o, const Vec3& d, double inv_dz, const Disc& disc, int id, Hit& hit)
+  {
+    if (d.z() <= kEps)
+      return;
+    const double t = (disc.z - o.z()) * inv_dz;
+    if (t <= kEps || t >= hit.t)
+      return;
+    const double x = o.x() + t * d.x() - disc.cx;
+    const double y = o.y() + t * d.y() - disc.cy;
+    const double r2 = x * x + y * y;
+    if (r2 < disc.r_in2 || r2 > disc.r_out2)
+      return;
+    hit.t = t;
+    hit.id = id;
+    hit.material = disc.material;
+    hit.normal = Vec3(0, 0, -1);
+    hit.owner = disc.owner;
+    hit.textured = disc.textured;
+  }
+
+  static void intersectTube(const Vec3& o, const Vec3& d, double a, double inv_a, const Tube& tube, int id, Hit& hit)
+  {
+    if (a < kEps)
+      return;
+    const double ox = o.x() - tube.cx;
+    const double oy = o.y() - tube.cy;
+    const double b = ox * d.x() + oy * d.y();
+    const double c = ox * ox + oy * oy - tube.r * tube.r;
+    const double disc = b * b - a * c;
+    if (disc < 0.0)
+      return;
+    const double root = std::sqrt(disc);
+    const double t = (tube.inward ? -b + root : -b - root) * inv_a;
+    if (t <= kEps || t >= hit.t)
+      return;
+    const double z = o.z() + t * d.z();
+    if (z < tube.z0 || z > tube.z1)
+      return;
+    const double sign = tube.inward ? -1.0 : 1.0;
+    hit.t = t;
+    hit.id = id;
+    hit.material = tube.material;
+    hit.normal = Vec3(sign * (ox + t * d.x()) / tube.r, sign * (oy + t * d.y()) / tube.r, 0.0);
+    hit.owner = -1;
+    hit.z_front = tube.z0;
+  }
+
+  const SceneParams& p_;
+  std::array<double, 3> lamp_weight_{};
+  double light_scale_ = 1.0;
+  double wall_z_ = 0.3;
+  double lower_board_top_ = 0.0;
+  double lower_board_bottom_ = 0.0;
+  double upper_board_bottom_ = 0.0;
+  double object_cx_ = 0.0;
+  double object_cy_ = 0.0;
+  std::vector<std::array<Vec3, 2>> boards_;
+  std::vector<Group> groups_;
+  std::vector<SpoolInfo> spools_;
+  int next_id_ = 0;
+};
+
+// Camera placement: centre in world and the camera-to-world rotation (columns: x right,
+// y down, z forward).
+struct CameraFrame
+{
+  Vec3 centre;
+  Mat3 rotation;
+};
+
+CameraFrame cameraFrame(const CameraPose& pose)
+{
+  const double planar2 = pose.distance * pose.distance - pose.height * pose.height - pose.lateral * pose.lateral;
+  if (!(pose.distance > 0.0) || !(planar2 > 0.0))
+    throw std::invalid_argument("camera pose: distance must exceed the lateral and height offsets");
+  CameraFrame f;
+  f.centre = Vec3(pose.lateral, SpoolRenderer::kHoleHeight + pose.height, -std::sqrt(planar2));
+  const double cy = std::cos(pose.yaw);
+  const double sy = std::sin(pose.yaw);
+  const double cp = std::cos(pose.pitch);
+  const double sp = std::sin(pose.pitch);
+  const Vec3 forward(sy * cp, -sp, cy * cp);
+  const Vec3 right(cy, 0.0, -sy);
+  const Vec3 down = right.cross(forward);
+  f.rotation.col(0) = right;
+  f.rotation.col(1) = down;
+  f.rotation.col(2) = forward;
+  return f;
+}
+
+Mat3 intrinsicMatrix(const CameraIntrinsics& k)
+{
+  Mat3 m;
+  m << k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0;
+  return m;
+}
+
+// Projects the circle of `radius` around `centre` in the plane z = centre.z; nullopt when part
+// of it lies behind the camera (its image is then no ellipse).
+std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const CameraFrame& cam, const Vec3& centre,
+                                             double radius)
+{
+  const Mat3 world_to_cam = cam.rotation.transpose();
+  const Vec3 c = world_to_cam * (centre - cam.centre);
+  const Vec3 e1 = world_to_cam.col(0);
+  const Vec3 e2 = world_to_cam.col(1);
+  ProjectedCircle pc;
+  int inside = 0;
+  for (int i = 0; i < kRimSamples; ++i)
+  {
+    const double a = 2.0 * M_PI * i / kRimSamples;
+    const Vec3 p = c + radius * (std::cos(a) * e1 + std::sin(a) * e2);
+    if (p.z() < 1e-3)
+      return std::nullopt;
+    const double u = k.fx * p.x() / p.z() + k.cx;
+    const double v = k.fy * p.y() / p.z() + k.cy;
+    if (u >= -0.5 && u <= k.width - 0.5 && v >= -0.5 && v <= k.height - 0.5)
+      ++inside;
+  }
+  pc.visible_fraction = static_cast<double>(inside) / kRimSamples;
+  pc.centre_x = k.fx * c.x() / c.z() + k.cx;
+  pc.centre_y = k.fy * c.y() / c.z() + k.cy;
+
+  // The plane-to-image homography maps the conic x^2 + y^2 = r^2 to the image conic.
+  Mat3 h;
+  h.col(0) = e1;
+  h.col(1) = e2;
+  h.col(2) = c;
+  h = intrinsicMatrix(k) * h;
+  const Mat3 h_inv = h.inverse();
+  Mat3 q = h_inv.transpose() * Eigen::Vector3d(1.0, 1.0, -radius * radius).asDiagonal() * h_inv;
+  q /= q.norm();
+  const double A = q(0, 0);
+  const double B = 2.0 * q(0, 1);
+  const double C = q(1, 1);
+  const double D = 2.0 * q(0, 2);
+  const double E = 2.0 * q(1, 2);
+  const double F = q(2, 2);
+
+  Eigen::Matrix2d m;
+  m << 2.0 * A, B, B, 2.0 * C;
+  const Eigen::Vector2d centre_px = m.inverse() * Eigen::Vector2d(-D, -E);
+  pc.x = centre_px.x();
+  pc.y = centre_px.y();
+  const double f0 = A * pc.x * pc.x + B * pc.x * pc.y + C * pc.y * pc.y + D * pc.x + E * pc.y + F;
+  Eigen::Matrix2d quad;
+  quad << A, 0.5 * B, 0.5 * B, C;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(quad);
+  const Eigen::Vector2d lambda = eig.eigenvalues();  // ascending
+  // Larger semi-axis belongs to the eigenvalue of smaller magnitude.
+  const int major = std::abs(lambda(0)) < std::abs(lambda(1)) ? 0 : 1;
+  pc.semi_major = std::sqrt(-f0 / lambda(major));
+  pc.semi_minor = std::sqrt(-f0 / lambda(1 - major));
+  pc.angle = std::atan2(eig.eigenvectors()(1, major), eig.eigenvectors()(0, major));
+  if (pc.angle > M_PI_2)
+    pc.angle -= M_PI;
+  else if (pc.angle <= -M_PI_2)
+    pc.angle += M_PI;
+  pc.r = 0.5 * (pc.semi_major + pc.semi_minor);
+  // Rows where the conic's row-quadratic has a double root bound the vertical extent.
+  const double qa = B * B - 4.0 * A * C;
+  const double qb = 2.0 * B * D - 4.0 * A * E;
+  const double qc = D * D - 4.0 * A * F;
+  pc.r_vertical = 0.5 * std::sqrt(std::max(0.0, qb * qb - 4.0 * qa * qc)) / std::abs(qa);
+  return pc;
+}
+
+// Fraction of the front opening through which the camera sees past the back opening.
+double litFraction(const CameraFrame& cam, double hole_radius, double bore_length)
+{
+  constexpr int kGrid = 64;
+  int total = 0;
+  int lit = 0;
+  for (int i = 0; i < kGrid; ++i)
+    for (int j = 0; j < kGrid; ++j)
+    {
+      const double x = hole_radius * (2.0 * (j + 0.5) / kGrid - 1.0);
+      const double y = hole_radius * (2.0 * (i + 0.5) / kGrid - 1.0);
+      if (x * x + y * y > hole_radius * hole_radius)
+        continue;
+      ++total;
+      const Vec3 p(x, SpoolRenderer::kHoleHeight + y, 0.0);
+      const Vec3 d = p - cam.centre;
+      const Vec3 q = cam.centre + d * ((bore_length - cam.centre.z()) / d.z());
+      if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius)
+        ++lit;
+    }
+  return total > 0 ? static_cast<double>(lit) / total : 0.0;
+}
+
+bool insideImage(const CameraIntrinsics& k, double u, double v)
+{
+  return u >= -0.5 && u <= k.width - 0.5 && v >= -0.5 && v <= k.height - 0.5;
+}
+
+std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t salt)
+{
+  // SplitMix64 finaliser: decorrelates nearby seeds.
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ULL * (salt + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return (z ^ (z >> 31)) | 1ULL;
+}
+
+void writeNumber(std::ostringstream& out, double value)
+{
+  if (std::isfinite(value))
+    out << value;
+  else
+    out << "null";
+}
+
+void writeCircle(std::ostringstream& out, const std::optional<ProjectedCircle>& c)
+{
+  if (!c)
+  {
+    out << "null";
+    return;
+  }
+  out << "{\"x\": ";
+  writeNumber(out, c->x);
+  out << ", \"y\": ";
+  writeNumber(out, c->y);
+  out << ", \"r\": ";
+  writeNumber(out, c->r);
+  out << ", \"r_vertical\": ";
+  writeNumber(out, c->r_vertical);
+  out << ", \"semi_major\": ";
+  writeNumber(out, c->semi_major);
+  out << ", \"semi_minor\": ";
+  writeNumber(out, c->semi_minor);
+  out << ", \"angle\": ";
+  writeNumber(out, c->angle);
+  out << ", \"centre_x\": ";
+  writeNumber(out, c->centre_x);
+  out << ", \"centre_y\": ";
+  writeNumber(out, c->centre_y);
+  out << ", \"visible_fraction\": ";
+  writeNumber(out, c->visible_fraction);
+  out << "}";
+}
+
+}  // namespace
+
+const char* toString(LampCondition lamps)
+{
+  switch (lamps)
+  {
+    case LampCondition::kS1S2:
+      return "S1+S2";
+    case LampCondition::kS1S3:
+      return "S1+S3";
+    case LampCondition::kS2S3:
+      return "S2+S3";
+    case LampCondition::kAll:
+      return "S1+S2+S3";
+  }
+  return "?";
+}
+
+const char* toString(SceneKind kind)
+{
+  switch (kind)
+  {
+    case SceneKind::kSpool:
+      return "spool";
+    case SceneKind::kEmptySlot:
+      return "empty_slot";
+    case SceneKind::kPlate:
+      return "plate";
+    case SceneKind::kTapeRoll:
+      return "tape_roll";
+    case SceneKind::kCan:
+      return "can";
+  }
+  return "?";
+}
+
+void lampRange(LampCondition lamps, double& min_lux, double& max_lux)
+{
+  switch (lamps)
+  {
+    case LampCondition::kS1S2:
+      min_lux = 108.0;
+      max_lux = 126.0;
+      return;
+    case LampCondition::kS1S3:
+      min_lux = 98.0;
+      max_lux = 121.0;
+      return;
+    case LampCondition::kS2S3:
+      min_lux = 140.0;
+      max_lux = 170.0;
+      return;
+    case LampCondition::kAll:
+      min_lux = 179.0;
+      max_lux = 205.0;
+      return;
+  }
+}
+
+SpoolRenderer::SpoolRenderer(const CameraIntrinsics& camera) : camera_(camera)
+{
+  if (!camera_.valid())
+    throw std::invalid_argument("SpoolRenderer: invalid camera intrinsics");
+}
+
+GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPose& pose) const
+{
+  const CameraFrame cam = cameraFrame(pose);
+  GroundTruth gt;
+  gt.kind = scene.kind;
+  gt.lamps = scene.lamps;
+  double lo = 0.0;
+  double hi = 0.0;
+  lampRange(scene.lamps, lo, hi);
+  gt.illuminance = scene.illuminance > 0.0 ? scene.illuminance : 0.5 * (lo + hi);
+  gt.pose = pose;
+  gt.camera = camera_;
+
+  const double big = 0.5 * scene.flange_diameter;
+  for (const Vec3& centre : neighbourCentres(scene))
+    if (auto pc = projectCircle(camera_, cam, centre, big))
+    {
+      gt.spool_centre_in_view |= insideImage(camera_, pc->centre_x, pc->centre_y);
+      gt.neighbours.push_back({*pc, (centre - cam.centre).norm(), std::atan((pc->centre_x - camera_.cx) / camera_.fx)});
+    }
+  if (scene.kind != SceneKind::kSpool)
+    return gt;
+
+  const Vec3 centre(0.0, kHoleHeight, 0.0);
+  gt.flange = projectCircle(camera_, cam, centre, big);
+  gt.hole = projectCircle(camera_, cam, centre, 0.5 * scene.hole_diameter);
+  if (!gt.flange || !gt.hole)
+    throw std::invalid_argument("camera pose: the front flange is not in front of the camera");
+  gt.spool_centre_in_view |= insideImage(camera_, gt.flange->centre_x, gt.flange->centre_y);
+  gt.flange_half_visible = gt.flange->visible_fraction >= 0.5;
+  gt.hole_in_view = gt.hole->visible_fraction >= 1.0;
+  gt.hole_lit_fraction = litFraction(cam, 0.5 * scene.hole_diameter, scene.bore_length);
+  gt.bore_visible = gt.hole_lit_fraction > 0.0;
+
+  gt.distance = (centre - cam.centre).norm();
+  const Vec3 c = cam.rotation.transpose() * (centre - cam.centre);
+  gt.reference.x = camera_.cx;
+  gt.reference.y = camera_.cy + camera_.fy * kPullerOffsetY / c.z();
+  gt.yaw = std::atan((gt.flange->centre_x - gt.reference.x) / camera_.fx);
+  gt.lateral_offset = gt.distance * std::tan(gt.yaw);
+
+  const Vec3 puller_origin = cam.centre + cam.rotation.col(1) * kPullerOffsetY;
+  const Vec3 axis = cam.rotation.col(2);
+  const Vec3 at_flange = puller_origin - axis * (puller_origin.z() / axis.z());
+  gt.puller_miss = std::hypot(at_flange.x(), at_flange.y() - kHoleHeight);
+  gt.axis_angle = std::acos(std::clamp(axis.z(), -1.0, 1.0));
+  const double tolerance = 0.5 * (scene.hole_diameter - kPullerDiameter);
+  gt.aligned = gt.puller_miss <= tolerance && std::abs(gt.yaw) <= kAlignedMaxAngle &&
+               gt.axis_angle <= kAlignedMaxAngle && gt.distance >= kAlignedDistanceMin &&
+               gt.distance <= kAlignedDistanceMax;
+  return gt;
+}
+
+RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& pose) const
+{
+  RenderedFrame frame;
+  frame.truth = groundTruth(scene, pose);
+  const CameraFrame cam = cameraFrame(pose);
+  const Scene world(scene);
+  const int w = camera_.width;
+  const int h = camera_.height;
+
+  auto rayDir = [&](double u, double v)
+  { return Vec3(cam.rotation * Vec3((u - camera_.cx) / camera_.fx, (v - camera_.cy) / camera_.fy, 1.0)); };
+  auto sample = [&](double u, double v, int& key)
+  {
+    const Vec3 d = rayDir(u, v);
+    const Hit hit = world.trace(cam.centre, d);
+    if (hit.id < 0)
+    {
+      key = -1;
+      return Vec3(Vec3::Zero());
+    }
+    int sub = 0;
+    const double footprint = hit.t * d.norm() / camera_.fx;
+    const Vec3 colour = world.shade(cam.centre, d, hit, footprint, sub);
+    key = hit.id * 4 + sub;
+    return colour;
+  };
+
+  cv::Mat radiance(h, w, CV_32FC3);
+  cv::Mat keys(h, w, CV_32S);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+    {
+      const Vec3 c = sample(u, v, keys.at<int>(v, u));
+      radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(c.x(), c.y(), c.z());
+    }
+
+  // Anti-aliasing where the visible surface (or a texture edge) changes between pixels.
+  cv::Mat edge = cv::Mat::zeros(h, w, CV_8U);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+    {
+      const int k = keys.at<int>(v, u);
+      if (u + 1 < w && keys.at<int>(v, u + 1) != k)
+        edge.at<uchar>(v, u) = edge.at<uchar>(v, u + 1) = 1;
+      if (v + 1 < h && keys.at<int>(v + 1, u) != k)
+        edge.at<uchar>(v, u) = edge.at<uchar>(v + 1, u) = 1;
+    }
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+    {
+      if (!edge.at<uchar>(v, u))
+        continue;
+      Vec3 sum = Vec3::Zero();
+      int unused = 0;
+      for (int i = 0; i < kSuperSamples; ++i)
+        for (int j = 0; j < kSuperSamples; ++j)
+          sum += sample(u + (j + 0.5) / kSuperSamples - 0.5, v + (i + 0.5) / kSuperSamples - 0.5, unused);
+      sum /= kSuperSamples * kSuperSamples;
+      radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(sum.x(), sum.y(), sum.z());
+    }
+
+  // Camera: lens blur and vignetting, then shot and read noise, quantisation and JPEG.
+  if (scene.blur_sigma > 0.05)
+    cv::GaussianBlur(radiance, radiance, cv::Size(), scene.blur_sigma);
+  cv::Mat noise(h, w, CV_32FC3);
+  cv::RNG rng(mixSeed(scene.seed, 1));
+  rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
+  const double half_diag2 = 0.25 * (double(w) * w + double(h) * h);
+  cv::Mat image(h, w, CV_8UC3);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+    {
+      const double r2 = ((u - camera_.cx) * (u - camera_.cx) + (v - camera_.cy) * (v - camera_.cy)) / half_diag2;
+      const double gain = 255.0 * scene.exposure * (1.0 - scene.vignetting * r2);
+      const cv::Vec3f& rad = radiance.at<cv::Vec3f>(v, u);
+      const cv::Vec3f& n = noise.at<cv::Vec3f>(v, u);
+      cv::Vec3b& out = image.at<cv::Vec3b>(v, u);
+      for (int ch = 0; ch < 3; ++ch)
+      {
+        const double level = gain * rad[ch];
+        const double sigma = scene.noise_sigma * std::sqrt((std::max(level, 0.0) + 16.0) / 144.0);
+        out[ch] = cv::saturate_cast<uchar>(level + sigma * n[ch]);
+      }
+    }
+  if (scene.jpeg_quality > 0)
+  {
+    std::vector<uchar> buffer;
+    cv::imencode(".jpg", image, buffer, {cv::IMWRITE_JPEG_QUALITY, scene.jpeg_quality});
+    image = cv::imdecode(buffer, cv::IMREAD_COLOR);
+  }
+  frame.image = image;
+  return frame;
+}
+
+SceneParams randomScene(SceneKind kind, std::uint64_t seed)
+{
+  cv::RNG rng(mixSeed(seed, 2));
+  SceneParams s;
+  s.kind = kind;
+  s.seed = seed;
+  s.lamps = static_cast<LampCondition>(rng.uniform(0, 4));
+  double lo = 0.0;
+  double hi = 0.0;
+  lampRange(s.lamps, lo, hi);
+  s.illuminance = rng.uniform(lo, hi);
+  s.exposure = rng.uniform(0.85, 1.15);
+
+  s.bore_length = rng.uniform(0.18, 0.22);
+  s.flange_thickness = rng.uniform(0.008, 0.015);
+  s.winding_diameter = rng.uniform(0.22, 0.32);
+  s.flange_reflectance = rng.uniform(0.05, 0.08);
+  s.bore_reflectance = rng.uniform(0.16, 0.24);
+  s.ribs = rng.uniform(0.0, 1.0) < 0.5;
+  s.label = rng.uniform(0.0, 1.0) < 0.4;
+  s.label_angle = rng.uniform(0.0, 2.0 * M_PI);
+  s.label_radius = rng.uniform(0.085, 0.12);
+
+  for (int side : {-1, 1})
+  {
+    const int count = rng.uniform(0, 3);
+    for (int i = 0; i < count; ++i)
+      s.neighbours.push_back({side, rng.uniform(0.01, 0.06), rng.uniform(-0.02, 0.02)});
+  }
+
+  switch (kind)
+  {
+    case SceneKind::kPlate:
+      s.object_radius = rng.uniform(0.09, 0.15);
+      break;
+    case SceneKind::kTapeRoll:
+      s.object_radius = rng.uniform(0.048, 0.065);
+      break;
+    case SceneKind::kCan:
+      s.object_radius = rng.uniform(0.033, 0.05);
+      break;
+    case SceneKind::kSpool:
+    case SceneKind::kEmptySlot:
+      break;
+  }
+  // Objects come in any colour, black included (the hardest look-alike of a flange).
+  const double grey = rng.uniform(0.0, 1.0) < 0.25 ? rng.uniform(0.04, 0.1) : rng.uniform(0.3, 0.9);
+  s.object_colour = cv::Vec3d(grey * rng.uniform(0.6, 1.0), grey * rng.uniform(0.6, 1.0), grey * rng.uniform(0.6, 1.0));
+  s.object_offset_x = rng.uniform(-0.08, 0.08);
+  s.object_depth = rng.uniform(0.0, 0.1);
+
+  s.wall_gap = rng.uniform(0.03, 0.2);
+  s.board_front = rng.uniform(-0.05, 0.0);
+  s.top_board_clearance = rng.uniform(0.04, 0.15);
+  const double wall = rng.uniform(0.6, 0.85);
+  s.wall_colour = cv::Vec3d(wall * rng.uniform(0.9, 1.0), wall * rng.uniform(0.95, 1.0), wall);
+
+  s.blur_sigma = rng.uniform(0.3, 0.9);
+  s.noise_sigma = rng.uniform(1.0, 4.0);
+  s.jpeg_quality = rng.uniform(0.0, 1.0) < 0.7 ? rng.uniform(70, 96) : 0;
+  s.vignetting = rng.uniform(0.05, 0.25);
+  return s;
+}
+
+std::string groundTruthToJson(const GroundTruth& t)
+{
+  std::ostringstream out;
+  out << std::setprecision(10);
+  out << "{\"kind\": \"" << toString(t.kind) << "\", \"lamps\": \"" << toString(t.lamps) << "\", \"illuminance\": ";
+  writeNumber(out, t.illuminance);
+  out << ", \"width\": " << t.camera.width << ", \"height\": " << t.camera.height
+      << ", \"camera\": {\"fx\": " << t.camera.fx << ", \"fy\": " << t.camera.fy << ", \"cx\": " << t.camera.cx
+      << ", \"cy\": " << t.camera.cy << "}"
+      << ", \"pose\": {\"distance\": " << t.pose.distance << ", \"lateral\": " << t.pose.lateral
+      << ", \"height\": " << t.pose.height << ", \"yaw\": " << t.pose.yaw << ", \"pitch\": " << t.pose.pitch
+      << "}, \"distance\": ";
+  writeNumber(out, t.distance);
+  out << ", \"yaw\": ";
+  writeNumber(out, t.yaw);
+  out << ", \"lateral_offset\": ";
+  writeNumber(out, t.lateral_offset);
+  out << ", \"flange\": ";
+  writeCircle(out, t.flange);
+  out << ", \"hole\": ";
+  writeCircle(out, t.hole);
+  out << ", \"reference\": ";
+  if (std::isfinite(t.reference.x))
+    out << "{\"x\": " << t.reference.x << ", \"y\": " << t.reference.y << "}";
+  else
+    out << "null";
+  out << std::boolalpha << ", \"flange_half_visible\": " << t.flange_half_visible
+      << ", \"hole_in_view\": " << t.hole_in_view << ", \"bore_visible\": " << t.bore_visible
+      << ", \"hole_lit_fraction\": " << t.hole_lit_fraction << ", \"puller_miss\": ";
+  writeNumber(out, t.puller_miss);
+  out << ", \"axis_angle\": ";
+  writeNumber(out, t.axis_angle);
+  out << ", \"aligned\": " << t.aligned << ", \"spool_centre_in_view\": " << t.spool_centre_in_view
+      << ", \"neighbours\": [";
+  for (std::size_t i = 0; i < t.neighbours.size(); ++i)
+  {
+    out << (i ? ", " : "");
+    out << "{\"flange\": ";
+    writeCircle(out, t.neighbours[i].flange);
+    out << ", \"distance\": ";
+    writeNumber(out, t.neighbours[i].distance);
+    out << ", \"yaw\": ";
+    writeNumber(out, t.neighbours[i].yaw);
+    out << "}";
+  }
+  out << "]}";
+  return out.str();
+}
+
+}  // namespace spool_vision

@@ -1,0 +1,364 @@
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "spool_vision/spool_renderer.h"
+
+namespace sv = spool_vision;
+
+namespace
+{
+constexpr double kDeg = M_PI / 180.0;
+
+// A scene without texture, neighbours or camera imperfections, so edges are exactly where the
+// geometry puts them.
+sv::SceneParams cleanScene()
+{
+  sv::SceneParams s;
+  s.ribs = false;
+  s.label = false;
+  s.blur_sigma = 0.0;
+  s.noise_sigma = 0.0;
+  s.jpeg_quality = 0;
+  s.vignetting = 0.0;
+  return s;
+}
+
+sv::CameraPose pose(double distance, double lateral = 0.0, double yaw = 0.0, double pitch = 0.0, double height = 0.06)
+{
+  sv::CameraPose p;
+  p.distance = distance;
+  p.lateral = lateral;
+  p.yaw = yaw;
+  p.pitch = pitch;
+  p.height = height;
+  return p;
+}
+
+cv::Mat grey(const cv::Mat& bgr)
+{
+  cv::Mat g;
+  cv::cvtColor(bgr, g, cv::COLOR_BGR2GRAY);
+  g.convertTo(g, CV_32F);
+  return g;
+}
+
+double bilinear(const cv::Mat& img, double u, double v)
+{
+  const int u0 = static_cast<int>(std::floor(u));
+  const int v0 = static_cast<int>(std::floor(v));
+  const double a = u - u0;
+  const double b = v - v0;
+  auto at = [&](int x, int y) { return static_cast<double>(img.at<float>(y, x)); };
+  return (1 - a) * (1 - b) * at(u0, v0) + a * (1 - b) * at(u0 + 1, v0) + (1 - a) * b * at(u0, v0 + 1) +
+         a * b * at(u0 + 1, v0 + 1);
+}
+
+cv::Point2d ellipsePoint(const sv::ProjectedCircle& c, double t)
+{
+  const double ca = std::cos(c.angle);
+  const double sa = std::sin(c.angle);
+  const double x = c.semi_major * std::cos(t);
+  const double y = c.semi_minor * std::sin(t);
+  return {c.x + x * ca - y * sa, c.y + x * sa + y * ca};
+}
+
+// Signed distance (px, positive = outwards) from the rim point at parameter t to where the
+// intensity profile along the outward normal crosses halfway between its inner and outer
+// plateaus; nullopt when the profile leaves the image.
+std::optional<double> edgeOffset(const cv::Mat& img, const sv::ProjectedCircle& c, double t, double reach)
+{
+  const cv::Point2d p = ellipsePoint(c, t);
+  const cv::Point2d q = ellipsePoint(c, t + 1e-4);
+  cv::Point2d n(q.y - p.y, -(q.x - p.x));  // outward for a counter-clockwise parameterisation
+  n *= 1.0 / std::hypot(n.x, n.y);
+  if ((p - cv::Point2d(c.x, c.y)).dot(n) < 0)
+    n = -n;
+  auto sample = [&](double s) { return bilinear(img, p.x + s * n.x, p.y + s * n.y); };
+  for (double s : {-reach, reach})
+  {
+    const cv::Point2d e = p + s * n;
+    if (e.x < 1 || e.y < 1 || e.x > img.cols - 2 || e.y > img.rows - 2)
+      return std::nullopt;
+  }
+  const double inner = sample(-reach);
+  const double outer = sample(reach);
+  const double half = 0.5 * (inner + outer);
+  const double step = 0.02;
+  for (double s = -reach; s < reach; s += step)
+  {
+    const double a = sample(s) - half;
+    const double b = sample(s + step) - half;
+    if ((a <= 0) != (b <= 0))
+      return s + step * a / (a - b);
+  }
+  return std::nullopt;
+}
+
+double meanInEllipse(const cv::Mat& img, const sv::ProjectedCircle& c, double shrink_px, double* max_value = nullptr,
+                     double* fraction_above = nullptr, double threshold = 0.0)
+{
+  double sum = 0.0;
+  double max_seen = 0.0;
+  int count = 0;
+  int above = 0;
+  const double a = c.semi_major - shrink_px;
+  const double b = c.semi_minor - shrink_px;
+  for (int v = 0; v < img.rows; ++v)
+    for (int u = 0; u < img.cols; ++u)
+    {
+      const double dx = u - c.x;
+      const double dy = v - c.y;
+      const double x = dx * std::cos(c.angle) + dy * std::sin(c.angle);
+      const double y = -dx * std::sin(c.angle) + dy * std::cos(c.angle);
+      if ((x * x) / (a * a) + (y * y) / (b * b) > 1.0)
+        continue;
+      const double value = img.at<float>(v, u);
+      sum += value;
+      max_seen = std::max(max_seen, value);
+      above += value > threshold ? 1 : 0;
+      ++count;
+    }
+  if (max_value)
+    *max_value = max_seen;
+  if (fraction_above)
+    *fraction_above = count ? static_cast<double>(above) / count : 0.0;
+  return count ? sum / count : 0.0;
+}
+
+}  // namespace
+
+TEST(SpoolRenderer, EllipseTruthMatchesProjectedRim)
+{
+  // r_vertical and the centre come from the conic; check them against projected 3D points.
+  const sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(640, 480);
+  const sv::SpoolRenderer renderer(k);
+  const sv::CameraPose p = pose(0.7, 0.12, 8 * kDeg, 3 * kDeg, 0.05);
+  const sv::GroundTruth gt = renderer.groundTruth(cleanScene(), p);
+  ASSERT_TRUE(gt.flange.has_value());
+  // Project the rim by hand with the same pose convention as the header documents.
+  const double planar = std::sqrt(p.distance * p.distance - p.height * p.height - p.lateral * p.lateral);
+  const cv::Vec3d eye(p.lateral, 1.0 + p.height, -planar);
+  const cv::Vec3d fwd(std::sin(p.yaw) * std::cos(p.pitch), -std::sin(p.pitch), std::cos(p.yaw) * std::cos(p.pitch));
+  const cv::Vec3d right(std::cos(p.yaw), 0.0, -std::sin(p.yaw));
+  const cv::Vec3d down = right.cross(fwd);
+  double v_min = 1e9;
+  double v_max = -1e9;
+  for (int i = 0; i < 20000; ++i)
+  {
+    const double a = 2 * M_PI * i / 20000;
+    const cv::Vec3d w = cv::Vec3d(0.175 * std::cos(a), 1.0 + 0.175 * std::sin(a), 0.0) - eye;
+    const double z = w.dot(fwd);
+    const double v = k.fy * w.dot(down) / z + k.cy;
+    v_min = std::min(v_min, v);
+    v_max = std::max(v_max, v);
+  }
+  EXPECT_NEAR(gt.flange->r_vertical, 0.5 * (v_max - v_min), 1e-3);
+  EXPECT_NEAR(gt.flange->y, 0.5 * (v_max + v_min), 0.05);  // the centre lies mid-extent
+  const cv::Vec3d c = cv::Vec3d(0.0, 1.0, 0.0) - eye;
+  EXPECT_NEAR(gt.flange->centre_x, k.fx * c.dot(right) / c.dot(fwd) + k.cx, 1e-9);
+  EXPECT_NEAR(gt.distance, 0.7, 1e-12);
+  // Under yaw the ellipse centre is displaced from the projected 3D centre (towards the
+  // nearer side); the hole, being small, barely moves.
+  EXPECT_GT(std::abs(gt.flange->x - gt.flange->centre_x), 2.0);
+  EXPECT_LT(std::abs(gt.hole->x - gt.hole->centre_x), 0.2);
+}
+
+TEST(SpoolRenderer, RimsFallOnRenderedEdges)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  for (const sv::CameraPose& p : {pose(0.8, 0.05, 3 * kDeg, 1 * kDeg), pose(1.05, -0.2, 6 * kDeg)})
+  {
+    const sv::RenderedFrame frame = renderer.render(cleanScene(), p);
+    const cv::Mat img = grey(frame.image);
+    ASSERT_TRUE(frame.truth.flange && frame.truth.hole);
+
+    // Upper part of the flange rim: black flange inside, lit back wall outside. On the side
+    // towards the camera the flange's cylindrical edge and the back flange widen the black
+    // silhouette beyond the front rim, so only the far side is compared.
+    const sv::ProjectedCircle& flange = *frame.truth.flange;
+    int checked = 0;
+    double sum_abs = 0.0;
+    for (int i = 0; i < 180; ++i)
+    {
+      const double t = 2 * M_PI * i / 180;
+      const cv::Point2d rim = ellipsePoint(flange, t);
+      if (rim.y > flange.y - 0.3 * flange.r || (rim.x - flange.x) * p.lateral > 0.0)
+        continue;
+      const auto off = edgeOffset(img, flange, t, 4.0);
+      if (!off)
+        continue;
+      EXPECT_LT(std::abs(*off), 0.6) << "flange rim, t = " << t;
+      sum_abs += std::abs(*off);
+      ++checked;
+    }
+    ASSERT_GT(checked, 25);
+    EXPECT_LT(sum_abs / checked, 0.25);
+
+    // Lower part of the hole's front rim: the bore wall inside is lighter than the flange.
+    const sv::ProjectedCircle& hole = *frame.truth.hole;
+    checked = 0;
+    sum_abs = 0.0;
+    for (int i = 0; i < 120; ++i)
+    {
+      const double t = 2 * M_PI * i / 120;
+      if (ellipsePoint(hole, t).y < hole.y + 0.3 * hole.r)
+        continue;
+      const auto off = edgeOffset(img, hole, t, 2.5);
+      ASSERT_TRUE(off.has_value()) << "hole rim, t = " << t;
+      EXPECT_LT(std::abs(*off), 0.6) << "hole rim, t = " << t;
+      sum_abs += std::abs(*off);
+      ++checked;
+    }
+    ASSERT_GT(checked, 30);
+    EXPECT_LT(sum_abs / checked, 0.3);
+  }
+}
+
+TEST(SpoolRenderer, BoreShowsThroughOnlyNearTheAxis)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const sv::SceneParams scene = cleanScene();
+
+  // On the axis, 6 cm above it: a bright lens in the upper part of the hole.
+  const sv::RenderedFrame near = renderer.render(scene, pose(0.55));
+  ASSERT_TRUE(near.truth.hole);
+  EXPECT_TRUE(near.truth.bore_visible);
+  EXPECT_GT(near.truth.hole_lit_fraction, 0.15);
+  EXPECT_LT(near.truth.hole_lit_fraction, 0.5);
+  const cv::Mat img = grey(near.image);
+  const sv::ProjectedCircle& hole = *near.truth.hole;
+  double lit = 0.0;
+  const double lens = bilinear(img, hole.x, hole.y - 0.8 * hole.r);
+  meanInEllipse(img, hole, 1.0, nullptr, &lit, 0.6 * lens);
+  EXPECT_NEAR(lit, near.truth.hole_lit_fraction, 0.06);
+  // The lens is at the top: the camera above the axis looks down the bore.
+  EXPECT_GT(lens, 3.0 * bilinear(img, hole.x, hole.y + 0.8 * hole.r));
+
+  // Far off the axis nothing shows through, but the bore wall is still lighter than the flange.
+  const sv::RenderedFrame off = renderer.render(scene, pose(0.9, 0.25));
+  ASSERT_TRUE(off.truth.hole);
+  EXPECT_FALSE(off.truth.bore_visible);
+  EXPECT_EQ(off.truth.hole_lit_fraction, 0.0);
+  const cv::Mat img2 = grey(off.image);
+  double max_hole = 0.0;
+  const double hole_mean = meanInEllipse(img2, *off.truth.hole, 1.5, &max_hole);
+  sv::ProjectedCircle ring = *off.truth.hole;  // a band of flange around the hole
+  ring.semi_major *= 2.5;
+  ring.semi_minor *= 2.5;
+  const double ring_and_hole = meanInEllipse(img2, ring, 0.0);
+  const double flange_mean = (ring_and_hole * 6.25 - hole_mean) / 5.25;  // areas 6.25 : 1
+  EXPECT_GT(hole_mean, flange_mean + 4.0);
+  const sv::ProjectedCircle& flange = *off.truth.flange;
+  const double wall = bilinear(img2, flange.x, flange.y - flange.r_vertical - 15.0);
+  EXPECT_LT(max_hole, 0.5 * wall);
+}
+
+TEST(SpoolRenderer, YawDistanceAndAlignmentTruth)
+{
+  const sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(160, 120);
+  const sv::SpoolRenderer renderer(k);
+  const sv::SceneParams scene = cleanScene();
+
+  // Camera 10 cm right of the spool, looking straight ahead: the spool appears left.
+  const sv::GroundTruth right = renderer.groundTruth(scene, pose(0.9, 0.1));
+  const double depth = std::sqrt(0.81 - 0.0036 - 0.01);
+  EXPECT_NEAR(right.yaw, std::atan(-0.1 / depth), 1e-12);
+  EXPECT_LT(right.yaw, 0.0);
+  EXPECT_NEAR(right.lateral_offset, 0.9 * std::tan(right.yaw), 1e-12);
+  EXPECT_NEAR(right.reference.y, k.cy + k.fy * 0.06 / depth, 1e-9);
+  EXPECT_NEAR(right.flange->r_vertical, k.fy * 0.175 / depth, 1e-6);
+  EXPECT_NEAR(right.puller_miss, 0.1, 1e-12);
+  EXPECT_FALSE(right.aligned);
+
+  const sv::GroundTruth aligned = renderer.groundTruth(scene, pose(0.55));
+  EXPECT_TRUE(aligned.aligned);
+  EXPECT_NEAR(aligned.puller_miss, 0.0, 1e-12);
+  EXPECT_NEAR(aligned.yaw, 0.0, 1e-12);
+  EXPECT_NEAR(aligned.hole->centre_y, aligned.reference.y, 1e-9);
+
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.7)).aligned);                    // too far
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.004)).aligned);            // misses by 4 mm
+  EXPECT_TRUE(renderer.groundTruth(scene, pose(0.55, 0.002)).aligned);             // within t_f
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.5 * kDeg)).aligned);  // askew
+
+  EXPECT_THROW(renderer.groundTruth(scene, pose(0.05, 0.1)), std::invalid_argument);
+}
+
+TEST(SpoolRenderer, DeterministicFromSeed)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(160, 120));
+  const sv::SceneParams scene = sv::randomScene(sv::SceneKind::kSpool, 42);
+  const sv::CameraPose p = pose(0.75, -0.05, 2 * kDeg);
+  const cv::Mat a = renderer.render(scene, p).image;
+  const cv::Mat b = renderer.render(sv::randomScene(sv::SceneKind::kSpool, 42), p).image;
+  EXPECT_EQ(a.type(), CV_8UC3);
+  EXPECT_EQ(a.size(), cv::Size(160, 120));
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  EXPECT_EQ(sv::groundTruthToJson(renderer.groundTruth(scene, p)),
+            sv::groundTruthToJson(renderer.groundTruth(sv::randomScene(sv::SceneKind::kSpool, 42), p)));
+
+  sv::SceneParams noise_only = scene;
+  noise_only.seed = 43;  // same shelf, other sensor noise
+  noise_only.noise_sigma = 3.0;
+  sv::SceneParams noisy = scene;
+  noisy.noise_sigma = 3.0;
+  EXPECT_GT(cv::norm(renderer.render(noisy, p).image, renderer.render(noise_only, p).image, cv::NORM_L1), 0.0);
+  EXPECT_GT(cv::norm(a, renderer.render(sv::randomScene(sv::SceneKind::kSpool, 44), p).image, cv::NORM_L1), 0.0);
+}
+
+TEST(SpoolRenderer, NegativesHaveNoFlangeTruth)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(160, 120));
+  for (sv::SceneKind kind :
+       {sv::SceneKind::kEmptySlot, sv::SceneKind::kPlate, sv::SceneKind::kTapeRoll, sv::SceneKind::kCan})
+  {
+    const sv::SceneParams scene = sv::randomScene(kind, 7);
+    const sv::RenderedFrame frame = renderer.render(scene, pose(0.8));
+    EXPECT_FALSE(frame.truth.flange.has_value()) << sv::toString(kind);
+    EXPECT_FALSE(frame.truth.hole.has_value());
+    EXPECT_TRUE(std::isnan(frame.truth.distance));
+    EXPECT_TRUE(std::isnan(frame.truth.yaw));
+    EXPECT_FALSE(frame.truth.aligned);
+    EXPECT_FALSE(frame.truth.bore_visible);
+    const std::string json = sv::groundTruthToJson(frame.truth);
+    EXPECT_NE(json.find("\"flange\": null"), std::string::npos) << json;
+    EXPECT_NE(json.find("\"distance\": null"), std::string::npos) << json;
+  }
+}
+
+TEST(SpoolRenderer, ObjectsAndNeighboursAppear)
+{
+  const sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(320, 240);
+  const sv::SpoolRenderer renderer(k);
+  sv::SceneParams empty = cleanScene();
+  empty.kind = sv::SceneKind::kEmptySlot;
+  sv::SceneParams plate = empty;
+  plate.kind = sv::SceneKind::kPlate;
+  plate.object_colour = cv::Vec3d(0.05, 0.05, 0.05);  // a black plate: a flange look-alike
+  const sv::CameraPose p = pose(0.8);
+  const cv::Mat a = grey(renderer.render(empty, p).image);
+  const cv::Mat b = grey(renderer.render(plate, p).image);
+  // The plate stands on the board below the hole axis, in the middle column.
+  const double board_top_v = k.cy + k.fy * (0.06 + 0.175) / std::sqrt(0.64 - 0.0036);
+  const int v = static_cast<int>(board_top_v - k.fy * plate.object_radius / 0.8);
+  EXPECT_GT(a.at<float>(v, 160), 4.0 * b.at<float>(v, 160));
+
+  sv::SceneParams shelf = cleanScene();
+  shelf.neighbours = {{-1, 0.02, 0.0}, {1, 0.05, 0.01}};
+  const sv::GroundTruth gt = renderer.groundTruth(shelf, pose(1.1));
+  ASSERT_EQ(gt.neighbours.size(), 2u);
+  const double depth = std::sqrt(1.21 - 0.0036);
+  EXPECT_NEAR(gt.neighbours[0].flange.centre_x, k.cx - k.fx * 0.37 / depth, 1e-6);
+  EXPECT_NEAR(gt.neighbours[1].flange.centre_x, k.cx + k.fx * 0.40 / (depth + 0.01), 1e-6);
+  EXPECT_NEAR(gt.neighbours[0].yaw, std::atan(-0.37 / depth), 1e-9);
+  EXPECT_NEAR(gt.neighbours[1].distance, std::sqrt(0.4 * 0.4 + 0.06 * 0.06 + std::pow(depth + 0.01, 2)), 1e-9);
+  EXPECT_TRUE(gt.spool_centre_in_view);
+}
