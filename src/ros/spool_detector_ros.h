@@ -1,0 +1,79 @@
+// The ROS adapter: image + camera_info in, spool_vision/SpoolPose (and a debug overlay) out.
+// One class behind both the `spool_detector` node and the SpoolDetectorNodelet.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <diagnostic_updater/update_functions.h>
+#include <dynamic_reconfigure/server.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+
+#include "spool_vision/SpoolDetectorConfig.h"
+#include "spool_vision/spool_detector.h"
+
+namespace spool_vision
+{
+class SpoolDetectorRos
+{
+public:
+  /// Reads the parameters from `pnh`, then subscribes and advertises on `nh`. Throws ParamError
+  /// (a bad or unknown parameter, or an image_transport that cannot be loaded) so that the node
+  /// and the nodelet refuse to start instead of running with a setting nobody asked for.
+  /// Every callback runs on the handles' callback queue, one at a time (ros::spin in the node,
+  /// the nodelet's single-threaded queue), which is what makes the unlocked state below safe.
+  /// `name` labels the diagnostics (the node name, or the nodelet name inside a manager).
+  SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name);
+
+  /// Private keys that configure the node rather than the detector.
+  static const std::set<std::string>& rosKeys();
+
+private:
+  void imageCallback(const sensor_msgs::ImageConstPtr& msg);
+  void cameraInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
+  void reconfigureCallback(SpoolDetectorConfig& config, uint32_t level);
+  void processImage(const sensor_msgs::ImageConstPtr& msg);
+  void reportCameraSource(const sensor_msgs::Image& msg);
+  void diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  SpoolDetector detector_;
+
+  image_transport::ImageTransport it_;
+  image_transport::ImageTransport private_it_;
+  image_transport::Subscriber image_sub_;
+  ros::Subscriber camera_info_sub_;
+  ros::Publisher pose_pub_;
+  image_transport::Publisher debug_pub_;
+
+  std::unique_ptr<dynamic_reconfigure::Server<SpoolDetectorConfig>> reconfigure_server_;
+  std::optional<SpoolDetectorConfig> applied_config_;
+
+  double min_rate_;
+  double max_rate_;
+  diagnostic_updater::Updater updater_;
+  std::unique_ptr<diagnostic_updater::FrequencyStatus> frequency_status_;
+  ros::WallTimer diagnostics_timer_;
+
+  // Camera source: calibrated intrinsics from camera_info, or why the fallback applies.
+  std::optional<CameraIntrinsics> info_camera_;
+  std::string camera_problem_ = "no camera_info received yet";
+  bool fallback_reported_ = false;
+
+  // Statistics since the last diagnostics update.
+  int window_frames_ = 0;
+  int window_detected_ = 0;
+  int window_failed_ = 0;
+  double window_detector_ms_ = 0.0;
+  double window_detector_max_ms_ = 0.0;
+  double window_callback_ms_ = 0.0;
+};
+
+}  // namespace spool_vision

@@ -1,0 +1,77 @@
+#!/usr/bin/python3
+"""rostest: an approach sequence (110 -> 50 cm) replayed from a bag through replay.launch.
+Every frame must be detected, its distance within tolerance of the ground truth, and `aligned`
+true exactly where the ground truth says so, which is only in the final frames."""
+import glob
+import json
+import os
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+from std_srvs.srv import SetBool
+
+from pose_harness import TIMEOUT, DetectorClient, wait_until
+
+DISTANCE_TOLERANCE = 0.03  # relative (DESIGN §7: p95 distance error <= 3 %)
+
+
+class ApproachReplayTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("approach_replay_test")
+        folder = rospy.get_param("~frames")
+        cls.rate = rospy.get_param("~rate", 10.0)
+        cls.start = rospy.get_param("~start", 1.0)
+        cls.truth = []
+        for path in sorted(glob.glob(os.path.join(folder, "frame_*.json"))):
+            with open(path) as f:
+                cls.truth.append(json.load(f))
+        client = DetectorClient(publish=False)
+        client.connect(publish=False)
+        # The player started paused (paused:=true) so that no pose is published before we listen.
+        rospy.wait_for_service("/player/pause_playback", timeout=TIMEOUT)
+        rospy.ServiceProxy("/player/pause_playback", SetBool)(False)
+        wait_until(lambda: len(client.poses()) >= len(cls.truth), timeout=TIMEOUT + len(cls.truth) / cls.rate,
+                   what="a SpoolPose for each of the %d frames" % len(cls.truth))
+        time.sleep(0.5)  # would let a duplicate or stray message show up in the count below
+        cls.poses = client.poses()
+
+    def frame_pose(self, index):
+        stamp = rospy.Time.from_sec(self.start + index / self.rate)
+        matches = [p for s, p in self.poses.items() if abs((s - stamp).to_sec()) < 0.25 / self.rate]
+        self.assertEqual(len(matches), 1, "frame %d: %d poses" % (index, len(matches)))
+        return matches[0]
+
+    def test_sequence_has_aligned_final_frames(self):
+        self.assertGreaterEqual(len(self.truth), 10)
+        self.assertFalse(self.truth[0]["aligned"])
+        self.assertTrue(self.truth[-1]["aligned"])
+        self.assertEqual(len(self.poses), len(self.truth))
+
+    def test_every_frame_detected_at_the_right_distance(self):
+        # Every bad frame is listed, not only the first, to show a pattern at a glance.
+        wrong = []
+        for i, truth in enumerate(self.truth):
+            pose = self.frame_pose(i)
+            if not pose.detected:
+                wrong.append("frame %d: not detected" % i)
+            elif abs(pose.distance - truth["distance"]) > DISTANCE_TOLERANCE * truth["distance"]:
+                wrong.append("frame %d: distance %.3f m, truth %.3f m" % (i, pose.distance, truth["distance"]))
+        self.assertFalse(wrong, "\n" + "\n".join(wrong))
+
+    def test_aligned_only_where_the_ground_truth_is(self):
+        first_aligned = next(i for i, t in enumerate(self.truth) if t["aligned"])
+        self.assertTrue(all(t["aligned"] for t in self.truth[first_aligned:]),
+                        "ground truth: aligned must hold to the end once reached")
+        wrong = ["frame %d: aligned %s, truth %s" % (i, self.frame_pose(i).aligned, t["aligned"])
+                 for i, t in enumerate(self.truth) if self.frame_pose(i).aligned != t["aligned"]]
+        self.assertFalse(wrong, "\n" + "\n".join(wrong))
+
+
+if __name__ == "__main__":
+    # One result file per registered variant: the .test names the node approach_replay_<set>.
+    names = [a.split(":=", 1)[1] for a in sys.argv if a.startswith("__name:=")]
+    rostest.rosrun("spool_vision", names[0] if names else "approach_replay", ApproachReplayTest)
