@@ -114,6 +114,8 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   reconfigure_server_->setCallback([this](SpoolDetectorConfig& config, uint32_t level)
                                    { reconfigureCallback(config, level); });
 
+  if (!(updater_.getPeriod() > 0.0))
+    throw ParamError("diagnostic_period", "must be a positive number of seconds");
   updater_.setHardwareID("spool_vision");
   frequency_status_ = std::make_unique<diagnostic_updater::FrequencyStatus>(
       diagnostic_updater::FrequencyStatusParam(&min_rate_, &max_rate_, 0.1, 10), "Frame rate");
