@@ -67,6 +67,25 @@ enum class PixelFormat
   kRgba8
 };
 
+/// The cv::Mat type a frame of `format` has.
+inline int matTypeOf(PixelFormat format)
+{
+  switch (format)
+  {
+    case PixelFormat::kMono8:
+      return CV_8UC1;
+    case PixelFormat::kMono16:
+      return CV_16UC1;
+    case PixelFormat::kBgr8:
+    case PixelFormat::kRgb8:
+      return CV_8UC3;
+    case PixelFormat::kBgra8:
+    case PixelFormat::kRgba8:
+      return CV_8UC4;
+  }
+  return -1;
+}
+
 /// What the detector reports for one frame. Undefined numbers are NaN, never stale values.
 struct SpoolDetection
 {

@@ -43,24 +43,6 @@ void drawLabel(cv::Mat& bgr, const std::string& text, int line, double font_scal
   cv::putText(bgr, text, origin, cv::FONT_HERSHEY_SIMPLEX, font_scale, color, thickness, cv::LINE_AA);
 }
 
-int expectedType(PixelFormat format)
-{
-  switch (format)
-  {
-    case PixelFormat::kMono8:
-      return CV_8UC1;
-    case PixelFormat::kMono16:
-      return CV_16UC1;
-    case PixelFormat::kBgr8:
-    case PixelFormat::kRgb8:
-      return CV_8UC3;
-    case PixelFormat::kBgra8:
-    case PixelFormat::kRgba8:
-      return CV_8UC4;
-  }
-  return -1;
-}
-
 }  // namespace
 
 void drawOverlay(cv::Mat& bgr, const SpoolDetection& detection)
@@ -105,7 +87,7 @@ cv::Mat renderOverlay(const cv::Mat& image, PixelFormat format, const SpoolDetec
 {
   if (image.empty())
     throw std::invalid_argument("overlay: empty image");
-  if (image.type() != expectedType(format))
+  if (image.type() != matTypeOf(format))
     throw std::invalid_argument("overlay: image type does not match its pixel format");
 
   cv::Mat bgr;

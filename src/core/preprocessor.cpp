@@ -11,24 +11,6 @@ namespace spool_vision
 {
 namespace
 {
-int expectedType(PixelFormat format)
-{
-  switch (format)
-  {
-    case PixelFormat::kMono8:
-      return CV_8UC1;
-    case PixelFormat::kMono16:
-      return CV_16UC1;
-    case PixelFormat::kBgr8:
-    case PixelFormat::kRgb8:
-      return CV_8UC3;
-    case PixelFormat::kBgra8:
-    case PixelFormat::kRgba8:
-      return CV_8UC4;
-  }
-  return -1;
-}
-
 // ITU-R BT.601 luma in 14-bit fixed point (the weights cv::cvtColor uses).
 template <int kChannels, int kRed, int kBlue>
 void lumaRows(const cv::Mat& image, cv::Mat& gray)
@@ -124,10 +106,10 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
 {
   if (image.empty())
     throw std::invalid_argument("empty image");
-  if (image.type() != expectedType(format))
+  if (image.type() != matTypeOf(format))
     throw std::invalid_argument("image type " + cv::typeToString(image.type()) +
                                 " does not match its pixel format (expected " +
-                                cv::typeToString(expectedType(format)) + ")");
+                                cv::typeToString(matTypeOf(format)) + ")");
   gray.create(image.size(), CV_8U);
   switch (format)
   {
