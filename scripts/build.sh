@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds the package in a catkin workspace under build/ws (git-ignored). Extra arguments go to
+# Builds the package in a catkin workspace outside the clone (see env.sh). Extra arguments go to
 # catkin_make (e.g. "tests" or "run_tests").
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
