@@ -21,23 +21,34 @@ struct SpoolMatch
 class ConcentricMatcher
 {
 public:
-  ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio);
+  /// `focal_length` (px) sizes the perspective allowance of centreTolerance(); 0 = none.
+  ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio, double focal_length = 0.0);
 
-  /// True when `hole` may belong to `flange`: in mcht mode its centre lies within the
-  /// concentric tolerance on both axes and its radius fits the known ratio; in cht mode always.
+  /// How far (px, per axis) a concentric hole's centre may lie from `flange`'s fitted centre.
+  /// A flange seen at an angle phi projects to an ellipse whose centre is pushed off the
+  /// projected disc centre by about r^2/f * tan(phi) (the near half looks bigger); the hole is
+  /// small enough to sit on the true centre. So the tolerance grows with r^2 up to
+  /// max_view_angle, which at 50 cm and 25 degrees is tens of pixels at 640x480.
+  double centreTolerance(const Circle& flange) const;
+
+  /// True when `hole` may belong to `flange`: in mcht mode its centre lies within
+  /// centreTolerance() on both axes and its radius fits the known ratio; in cht mode always.
   bool accepts(const Circle& flange, const Circle& hole) const;
 
   /// The hole for `flange` among `holes`, if any passes: in mcht mode the one nearest the
   /// flange centre, in cht mode the strongest (the thesis baseline has no pairing rule).
   std::optional<Circle> matchHole(const Circle& flange, const std::vector<Circle>& holes) const;
 
-  /// The target among several flanges: the one whose centre is nearest `reference`.
-  static std::optional<Circle> selectTarget(const std::vector<Circle>& flanges,
-                                            const cv::Point2d& reference);
+  /// Indices of `flanges`, nearest `reference` first, the distance divided by the rim score:
+  /// the order in which candidates are tried as the target (the robot wants the spool in front
+  /// of the puller). Reuses `order`'s memory.
+  static void orderByReference(const std::vector<Circle>& flanges, const cv::Point2d& reference,
+                               std::vector<std::size_t>& order);
 
 private:
   MatcherParams params_;
   double ratio_;
+  double focal_length_;
 };
 
 }  // namespace spool_vision

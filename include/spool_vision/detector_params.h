@@ -68,7 +68,9 @@ struct PreprocessParams
 struct HoughParams
 {
   double edge_threshold = 0.06;  ///< minimum gradient magnitude, fraction of full scale
-  double sensitivity = 0.80;     ///< MATLAB-style: a circle needs (1 - sensitivity) of its rim
+  double hole_edge_threshold = 0.02;  ///< the same inside the hole window (the bore rim is faint)
+  double sensitivity = 0.55;       ///< MATLAB-style: a flange needs (1 - sensitivity) of its rim
+  double hole_sensitivity = 0.8;   ///< the same for the hole (a partly lit bore shows part of its rim)
   Polarity flange_polarity = Polarity::kDark;
   Polarity hole_polarity = Polarity::kBright;
   double flange_radius_min = 0.0;  ///< px, 0 = from distance_max
@@ -85,6 +87,7 @@ struct MatcherParams
   MatchMode mode = MatchMode::kMcht;
   double concentric_tolerance = 4.0;   ///< px, |hole centre - flange centre| per axis
   double hole_ratio_tolerance = 0.35;  ///< relative deviation from hole/flange diameter ratio
+  double max_view_angle = 0.44;        ///< rad, widest view of the flange off its axis (~25 deg)
 };
 
 /// Spool, camera and alignment geometry (thesis §3.4).

@@ -26,6 +26,11 @@ public:
   /// `threshold` is the minimum gradient magnitude as a fraction of full scale (0..1).
   void detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges);
 
+  /// The two halves of detect(): gradients of the whole frame once, then edges of any region
+  /// at any threshold (the faint hole rim is extracted at a lower threshold in its small window).
+  void computeGradients(const cv::Mat& gray8);
+  void extract(double threshold, const cv::Rect& roi, std::vector<EdgePoint>& edges) const;
+
 private:
   cv::Mat gx_, gy_, mag_;
 };

@@ -45,6 +45,9 @@ public:
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
+  double holeToFlangeRatio() const { return params_.geometry.hole_diameter / params_.geometry.flange_diameter; }
+  /// Picks the target among the flange candidates and finds its hole (thesis Rule 2).
+  void selectTarget(const cv::Point2d& reference, double hole_min, double hole_max, SpoolDetection& result);
 
   DetectorParams params_;
   Preprocessor preprocessor_;
@@ -58,8 +61,10 @@ private:
 
   cv::Mat preprocessed_;
   std::vector<EdgePoint> edges_;
+  std::vector<EdgePoint> hole_edges_;
   std::vector<Circle> flanges_;
   std::vector<Circle> holes_;
+  std::vector<std::size_t> order_;
 };
 
 }  // namespace spool_vision

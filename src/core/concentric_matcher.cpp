@@ -1,20 +1,29 @@
 #include "spool_vision/concentric_matcher.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace spool_vision
 {
-ConcentricMatcher::ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio)
-  : params_(params), ratio_(hole_to_flange_ratio)
+ConcentricMatcher::ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio, double focal_length)
+  : params_(params), ratio_(hole_to_flange_ratio), focal_length_(focal_length)
 {
+}
+
+double ConcentricMatcher::centreTolerance(const Circle& flange) const
+{
+  if (focal_length_ <= 0.0)
+    return params_.concentric_tolerance;
+  return params_.concentric_tolerance +
+         flange.r_vertical * flange.r_vertical / focal_length_ * std::tan(params_.max_view_angle);
 }
 
 bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const
 {
   if (params_.mode == MatchMode::kCht)
     return true;
-  const double tol = params_.concentric_tolerance;
+  const double tol = centreTolerance(flange);
   if (std::abs(hole.x - flange.x) > tol || std::abs(hole.y - flange.y) > tol)
     return false;
   const double expected = ratio_ * flange.r_vertical;
@@ -42,21 +51,18 @@ std::optional<Circle> ConcentricMatcher::matchHole(const Circle& flange,
   return best;
 }
 
-std::optional<Circle> ConcentricMatcher::selectTarget(const std::vector<Circle>& flanges,
-                                                      const cv::Point2d& reference)
+void ConcentricMatcher::orderByReference(const std::vector<Circle>& flanges, const cv::Point2d& reference,
+                                         std::vector<std::size_t>& order)
 {
-  std::optional<Circle> best;
-  double best_d = std::numeric_limits<double>::infinity();
-  for (const Circle& f : flanges)
-  {
-    const double d = std::hypot(f.x - reference.x, f.y - reference.y);
-    if (d < best_d)
-    {
-      best_d = d;
-      best = f;
-    }
-  }
-  return best;
+  order.clear();
+  for (std::size_t i = 0; i < flanges.size(); ++i)
+    order.push_back(i);
+  // Distance weighted by support: arcs of several objects can fake a weak circle right in the
+  // middle of the frame, and a candidate half as well supported must be twice as close to win.
+  auto cost = [&](std::size_t i) {
+    return std::hypot(flanges[i].x - reference.x, flanges[i].y - reference.y) / std::max(flanges[i].score, 1e-3);
+  };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost(a) < cost(b); });
 }
 
 }  // namespace spool_vision

@@ -93,8 +93,12 @@ std::vector<ParamSpec> buildSpecs()
       // Hough (thesis §3.3.4, Rule 1)
       number("edge_threshold", FIELD(hough.edge_threshold), 0.0, 1.0, "fraction of full scale",
              "minimum Sobel gradient magnitude of an edge pixel"),
+      number("hole_edge_threshold", FIELD(hough.hole_edge_threshold), 0.0, 1.0, "fraction of full scale",
+             "the same for the hole search, which only looks where a concentric hole can be"),
       number("sensitivity", FIELD(hough.sensitivity), 0.0, 0.99, "",
-             "a circle needs (1 - sensitivity) of its visible rim supported (thesis: 0.89)"),
+             "a flange needs (1 - sensitivity) of its visible rim supported (thesis: 0.89)"),
+      number("hole_sensitivity", FIELD(hough.hole_sensitivity), 0.0, 0.99, "",
+             "a hole needs (1 - hole_sensitivity) of its visible rim supported (thesis: 0.89)"),
       choice<Polarity>("flange_polarity", FIELD(hough.flange_polarity), polarity,
                        "flange disc darker or brighter than its surroundings"),
       choice<Polarity>("hole_polarity", FIELD(hough.hole_polarity), polarity,
@@ -118,6 +122,8 @@ std::vector<ParamSpec> buildSpecs()
              "hole centre within this of the flange centre on each axis (thesis: 2)"),
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",
              "relative deviation allowed from the hole/flange diameter ratio"),
+      number("max_view_angle", FIELD(matcher.max_view_angle), 0.0, 1.2, "rad",
+             "widest angle off the spool axis the flange is seen at; widens concentric_tolerance by r^2/f*tan"),
       // Geometry (thesis §3.4)
       number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m",
              "spool flange diameter"),

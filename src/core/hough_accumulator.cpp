@@ -55,7 +55,12 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size)
 
 void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges)
 {
-  edges.clear();
+  computeGradients(gray8);
+  extract(threshold, cv::Rect(0, 0, gray8.cols, gray8.rows), edges);
+}
+
+void EdgeDetector::computeGradients(const cv::Mat& gray8)
+{
   // 3x3 Sobel and squared magnitude in one pass with replicated borders (cv::Sobel allocates
   // its filter engine on every call; this path reuses its buffers).
   const int w = gray8.cols;
@@ -83,16 +88,22 @@ void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::vector<Ed
       at(x, x - 1, x + 1);
     at(w - 1, std::max(w - 2, 0), w - 1);
   }
+}
 
+void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::vector<EdgePoint>& edges) const
+{
+  edges.clear();
+  // The outermost rows and columns have no neighbour on one side for the suppression.
+  const cv::Rect area = roi & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
   const int t2 = static_cast<int>(t * t);
   const size_t step = mag_.step1();
-  for (int y = 1; y + 1 < h; ++y)
+  for (int y = area.y; y < area.y + area.height; ++y)
   {
     const short* gxr = gx_.ptr<short>(y);
     const short* gyr = gy_.ptr<short>(y);
     const int* m = mag_.ptr<int>(y);
-    for (int x = 1; x + 1 < w; ++x)
+    for (int x = area.x; x < area.x + area.width; ++x)
     {
       const int c2 = m[x];
       if (c2 < t2)

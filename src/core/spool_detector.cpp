@@ -10,7 +10,7 @@ namespace spool_vision
 SpoolDetector::SpoolDetector(const DetectorParams& params)
   : params_(params)
   , preprocessor_(params.preprocess)
-  , matcher_(params.matcher, params.geometry.hole_diameter / params.geometry.flange_diameter)
+  , matcher_(params.matcher, holeToFlangeRatio())
 {
   validateParams(params);
 }
@@ -20,7 +20,7 @@ void SpoolDetector::setParams(const DetectorParams& params)
   validateParams(params);
   params_ = params;
   preprocessor_.setParams(params.preprocess);
-  matcher_ = ConcentricMatcher(params.matcher, params.geometry.hole_diameter / params.geometry.flange_diameter);
+  matcher_ = ConcentricMatcher(params.matcher, holeToFlangeRatio());
   geometry_.reset();
 }
 
@@ -48,6 +48,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
                                                         params_.geometry.fallback_focal_length)
                       : *camera_;
   geometry_.emplace(params_.geometry, camera);
+  matcher_ = ConcentricMatcher(params_.matcher, holeToFlangeRatio(), camera.fy);
   return *geometry_;
 }
 
@@ -83,44 +84,79 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
 
   SpoolDetection result;
-  const std::optional<Circle> target =
-      ConcentricMatcher::selectTarget(flanges_, geometry.reference(geometry.nominalDistance()));
-  holes_.clear();
-  if (target)
-  {
-    result.detected = true;
-    result.flange = *target;
-    result.confidence = target->score;
+  selectTarget(geometry.reference(geometry.nominalDistance()), pick(hp.hole_radius_min, hole_min),
+               pick(hp.hole_radius_max, hole_max), result);
+  geometry.measure(result);
+  result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
 
-    HoughSearch hole_search;
-    hole_search.polarity = hp.hole_polarity;
-    hole_search.min_score = 1.0 - hp.sensitivity;
-    hole_search.min_visible_fraction = hp.min_visible_fraction;
-    hole_search.max_circles = hp.max_candidates;
-    hole_search.r_min = pick(hp.hole_radius_min, hole_min);
-    hole_search.r_max = pick(hp.hole_radius_max, hole_max);
-    if (params_.matcher.mode == MatchMode::kMcht)
-    {
-      // The concentric rule lets the hole search look only where a matching hole can be, at
-      // the radius the flange implies: a window of a few pixels instead of the whole frame.
-      const double tol = params_.matcher.concentric_tolerance;
-      hole_search.center_window =
-          cv::Rect2d(target->x - tol, target->y - tol, 2.0 * tol + 1e-9, 2.0 * tol + 1e-9);
-      const double expected = target->r_vertical * params_.geometry.hole_diameter / params_.geometry.flange_diameter;
-      const double spread = params_.matcher.hole_ratio_tolerance * expected;
-      hole_search.r_min = std::max({hole_search.r_min, expected - spread, 1.5});
-      hole_search.r_max = std::min(hole_search.r_max, expected + spread);
-    }
-    hole_hough_.detect(edges_, image.size(), hole_search, holes_);
-    if (const auto hole = matcher_.matchHole(*target, holes_))
+void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, double hole_max,
+                                 SpoolDetection& result)
+{
+  const HoughParams& hp = params_.hough;
+  HoughSearch hole_search;
+  hole_search.polarity = hp.hole_polarity;
+  hole_search.min_score = 1.0 - hp.hole_sensitivity;
+  hole_search.min_visible_fraction = hp.min_visible_fraction;
+  hole_search.max_circles = hp.max_candidates;
+  hole_search.r_min = hole_min;
+  hole_search.r_max = hole_max;
+
+  ConcentricMatcher::orderByReference(flanges_, reference, order_);
+  holes_.clear();
+  if (params_.matcher.mode == MatchMode::kCht)
+  {
+    // The thesis baseline: the flange nearest the reference, the strongest hole anywhere.
+    if (order_.empty())
+      return;
+    const Circle& target = flanges_[order_.front()];
+    result.detected = true;
+    result.flange = target;
+    result.confidence = target.score;
+    edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()), hole_edges_);
+    hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
+    if (const auto hole = matcher_.matchHole(target, holes_))
     {
       result.hole_detected = true;
       result.hole = *hole;
     }
+    return;
   }
-  geometry.measure(result);
-  result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  return result;
+  // MCHT: a flange is a spool only with a concentric hole of the right size, so false circles
+  // (arcs of neighbours, shelf edges, round objects without a bore) do not become the target.
+  // Candidates are tried nearest-first; the hole search looks only in the concentric window,
+  // at the radius the flange implies.
+  const double ratio = holeToFlangeRatio();
+  for (const std::size_t i : order_)
+  {
+    const Circle& flange = flanges_[i];
+    const double tol = matcher_.centreTolerance(flange);
+    HoughSearch search = hole_search;
+    search.center_window = cv::Rect2d(flange.x - tol, flange.y - tol, 2.0 * tol + 1e-9, 2.0 * tol + 1e-9);
+    const double expected = flange.r_vertical * ratio;
+    const double spread = params_.matcher.hole_ratio_tolerance * expected;
+    search.r_min = std::max({search.r_min, expected - spread, 1.5});
+    search.r_max = std::min(search.r_max, expected + spread);
+    if (search.r_min > search.r_max)
+      continue;
+    // Only edges that can lie on a concentric hole's rim, at the hole's own threshold.
+    const double reach = tol + search.r_max + 2.0;
+    const cv::Rect window(cvFloor(flange.x - reach), cvFloor(flange.y - reach), cvCeil(2.0 * reach) + 1,
+                          cvCeil(2.0 * reach) + 1);
+    edge_detector_.extract(hp.hole_edge_threshold, window, hole_edges_);
+    hole_hough_.detect(hole_edges_, preprocessed_.size(), search, holes_);
+    if (const auto hole = matcher_.matchHole(flange, holes_))
+    {
+      result.detected = true;
+      result.flange = flange;
+      result.confidence = flange.score;
+      result.hole_detected = true;
+      result.hole = *hole;
+      return;
+    }
+  }
+  holes_.clear();
 }
 
 }  // namespace spool_vision

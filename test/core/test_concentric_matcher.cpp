@@ -74,11 +74,16 @@ TEST(ConcentricMatcher, MchtTakesTheNearestPassingHole)
   EXPECT_FALSE(m.matchHole(flange, {circle(20, 20, 5.1)}));
 }
 
-TEST(ConcentricMatcher, TargetIsTheFlangeNearestTheReference)
+TEST(ConcentricMatcher, CandidatesAreTriedNearestTheReferenceFirst)
 {
-  const auto target = ConcentricMatcher::selectTarget(
-      {circle(20, 60, 50, 0.9), circle(90, 62, 50, 0.5), circle(150, 60, 50, 0.7)}, {80, 50});
-  ASSERT_TRUE(target);
-  EXPECT_DOUBLE_EQ(target->x, 90);
-  EXPECT_FALSE(ConcentricMatcher::selectTarget({}, {80, 50}));
+  std::vector<std::size_t> order{7};
+  ConcentricMatcher::orderByReference({circle(20, 60, 50, 0.9), circle(90, 62, 50, 0.5), circle(150, 60, 50, 0.7)},
+                                      {80, 50}, order);
+  EXPECT_EQ(order, (std::vector<std::size_t>{1, 0, 2}));
+  // A weak circle must be nearer in proportion to its missing support: 20 px at 0.25 costs 80,
+  // 60 px at 1.0 costs 60.
+  ConcentricMatcher::orderByReference({circle(100, 50, 50, 0.25), circle(140, 50, 50, 1.0)}, {80, 50}, order);
+  EXPECT_EQ(order, (std::vector<std::size_t>{1, 0}));
+  ConcentricMatcher::orderByReference({}, {80, 50}, order);
+  EXPECT_TRUE(order.empty());
 }

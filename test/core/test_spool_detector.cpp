@@ -128,19 +128,23 @@ TEST(SpoolDetector, TargetsTheSpoolInFrontAmongNeighbours)
   EXPECT_TRUE(d.hole_detected);
 }
 
-TEST(SpoolDetector, MchtRejectsAnOffCentreHoleThatChtAccepts)
+TEST(SpoolDetector, MchtRejectsAFlangeWhoseOnlyHoleIsOffCentreWhereChtAcceptsIt)
 {
   const DrawnSpool s = spoolAt(kVga, 0.8, 0.0, 0.06);
   cv::Mat img = drawScene({640, 480}, {{s.x, s.y, s.flange_r, 0.0}});
-  // A bright disc of hole size, 30 px from the flange centre (a reflection, say).
+  // The real hole filled in, and a bright disc of hole size 30 px from the centre (a
+  // reflection, say): beyond the concentric window, which at 0.8 m is 4 + 175^2/800*tan(0.44)
+  // = 22 px.
   cv::Mat gray;
   cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
+  spool_vision::test::fillEllipse(gray, s.x, s.y, s.hole_r + 2, s.hole_r + 2, spool_vision::test::SceneStyle().flange);
   spool_vision::test::fillEllipse(gray, s.x + 30, s.y, s.hole_r, s.hole_r, 235);
   cv::cvtColor(gray, img, cv::COLOR_GRAY2BGR);
   SpoolDetector mcht;
   const SpoolDetection a = mcht.detect(img, PixelFormat::kBgr8);
-  ASSERT_TRUE(a.detected);
+  EXPECT_FALSE(a.detected);
   EXPECT_FALSE(a.hole_detected);
+  EXPECT_TRUE(std::isnan(a.distance));
 
   DetectorParams p;
   p.matcher.mode = MatchMode::kCht;
