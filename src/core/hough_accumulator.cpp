@@ -344,7 +344,9 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
       const Eigen::Vector4d q(u * u, v * v, u, v);
       en += q * q.transpose();
       er += q;
-      octants |= 1u << (static_cast<int>((std::atan2(v, u) + kPi) / (kPi / 4.0)) & 7);
+      // The octant from signs and the diagonal: the same eight sectors as atan2 (which cost 7% of
+      // a frame here), numbered differently.
+      octants |= 1u << ((v < 0.0 ? 4u : 0u) | (u < 0.0 ? 2u : 0u) | (std::abs(u) < std::abs(v) ? 1u : 0u));
       ++count;
     }
     if (count < 8)
@@ -363,8 +365,9 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
     double nsy = r_fit;
 
     // The ellipse needs the rim on the left and the right of the centre and most octants.
-    const bool left = octants & ((1u << 3) | (1u << 4));
-    const bool right = octants & ((1u << 0) | (1u << 7));
+    // Octants within 45 degrees of the horizontal axis: u < 0 is 2 and 6, u >= 0 is 0 and 4.
+    const bool left = octants & ((1u << 2) | (1u << 6));
+    const bool right = octants & ((1u << 0) | (1u << 4));
     if (left && right && std::bitset<8>(octants).count() >= 5)
     {
       const Eigen::Vector4d sol = en.ldlt().solve(er);
@@ -409,7 +412,7 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
     return;
 
   // Cells coarse enough to keep the accumulator small for big radii, fine for small ones.
-  cell_ = std::clamp(std::floor(search.r_min / 16.0), 1.0, 8.0);
+  cell_ = std::clamp(search.r_min / 16.0, 1.0, 8.0);
   cv::Rect2d window = search.center_window;
   if (window.empty())
   {
