@@ -39,6 +39,12 @@ enum class MatchMode
   kMcht,
   kCht
 };
+/// What makes a spool in mcht mode.
+enum class SpoolEvidence
+{
+  kHole,   ///< a flange with a concentric hole (a round thing without a bore is not a spool)
+  kFlange  ///< the flange alone; the hole is reported when one passes (thesis: "BC or both")
+};
 enum class YawMode
 {
   kPinhole,
@@ -85,6 +91,7 @@ struct HoughParams
 struct MatcherParams
 {
   MatchMode mode = MatchMode::kMcht;
+  SpoolEvidence spool_evidence = SpoolEvidence::kHole;
   double concentric_tolerance = 4.0;   ///< px, |hole centre - flange centre| per axis
   double hole_ratio_tolerance = 0.35;  ///< relative deviation from hole/flange diameter ratio
   double max_view_angle = 0.44;        ///< rad, widest view of the flange off its axis (~25 deg)

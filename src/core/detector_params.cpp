@@ -118,6 +118,8 @@ std::vector<ParamSpec> buildSpecs()
       // Concentric matcher (thesis Eq. 3.1, Rule 2)
       choice<MatchMode>("mode", FIELD(matcher.mode), {"mcht", "cht"},
                         "mcht: hole must be concentric with the flange; cht: no constraint"),
+      choice<SpoolEvidence>("spool_evidence", FIELD(matcher.spool_evidence), {"hole", "flange"},
+                            "mcht: hole = a spool needs a concentric hole; flange = the flange alone counts (thesis)"),
       number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 100.0, "px",
              "hole centre within this of the flange centre on each axis (thesis: 2)"),
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",

@@ -157,6 +157,13 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, 
     }
   }
   holes_.clear();
+  if (params_.matcher.spool_evidence == SpoolEvidence::kFlange && !order_.empty())
+  {
+    const Circle& target = flanges_[order_.front()];
+    result.detected = true;
+    result.flange = target;
+    result.confidence = target.score;
+  }
 }
 
 }  // namespace spool_vision
