@@ -24,15 +24,16 @@ public:
   /// `focal_length` (px) sizes the perspective allowance of centreTolerance(); 0 = none.
   ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio, double focal_length = 0.0);
 
-  /// How far (px, per axis) a concentric hole's centre may lie from `flange`'s fitted centre.
-  /// A flange seen at an angle phi projects to an ellipse whose centre is pushed off the
-  /// projected disc centre by about r^2/f * tan(phi) (the near half looks bigger); the hole is
-  /// small enough to sit on the true centre. So the tolerance grows with r^2 up to
-  /// max_view_angle, which at 50 cm and 25 degrees is tens of pixels at 640x480.
-  double centreTolerance(const Circle& flange) const;
+  /// How far (px; width along x, height along y) a concentric hole's centre may lie from
+  /// `flange`'s fitted centre. A flange seen at an angle phi projects to an ellipse whose centre
+  /// is pushed off the projected disc centre by about r^2/f * tan(phi) (the near half looks
+  /// bigger); the hole is small enough to sit on the true centre. The spool axis is horizontal,
+  /// so phi reaches max_view_angle sideways (tens of pixels at 50 cm and 640x480) but only
+  /// max_view_pitch up or down, which keeps the window small where it need not be large.
+  cv::Size2d centreTolerance(const Circle& flange) const;
 
   /// True when `hole` may belong to `flange`: in mcht mode its centre lies within
-  /// centreTolerance() on both axes and its radius fits the known ratio; in cht mode always.
+  /// centreTolerance() and its radius fits the known ratio; in cht mode always.
   bool accepts(const Circle& flange, const Circle& hole) const;
 
   /// The hole for `flange` among `holes`, if any passes: in mcht mode the one nearest the

@@ -94,7 +94,8 @@ struct MatcherParams
   SpoolEvidence spool_evidence = SpoolEvidence::kHole;
   double concentric_tolerance = 4.0;   ///< px, |hole centre - flange centre| per axis
   double hole_ratio_tolerance = 0.35;  ///< relative deviation from hole/flange diameter ratio
-  double max_view_angle = 0.44;        ///< rad, widest view of the flange off its axis (~25 deg)
+  double max_view_angle = 0.44;        ///< rad, widest view of the flange off its axis, sideways (~25 deg)
+  double max_view_pitch = 0.05;        ///< rad, the same up or down (~3 deg)
 };
 
 /// Spool, camera and alignment geometry (thesis §3.4).

@@ -11,20 +11,19 @@ ConcentricMatcher::ConcentricMatcher(const MatcherParams& params, double hole_to
 {
 }
 
-double ConcentricMatcher::centreTolerance(const Circle& flange) const
+cv::Size2d ConcentricMatcher::centreTolerance(const Circle& flange) const
 {
-  if (focal_length_ <= 0.0)
-    return params_.concentric_tolerance;
-  return params_.concentric_tolerance +
-         flange.r_vertical * flange.r_vertical / focal_length_ * std::tan(params_.max_view_angle);
+  const double drift = focal_length_ > 0.0 ? flange.r_vertical * flange.r_vertical / focal_length_ : 0.0;
+  return {params_.concentric_tolerance + drift * std::tan(params_.max_view_angle),
+          params_.concentric_tolerance + drift * std::tan(params_.max_view_pitch)};
 }
 
 bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const
 {
   if (params_.mode == MatchMode::kCht)
     return true;
-  const double tol = centreTolerance(flange);
-  if (std::abs(hole.x - flange.x) > tol || std::abs(hole.y - flange.y) > tol)
+  const cv::Size2d tol = centreTolerance(flange);
+  if (std::abs(hole.x - flange.x) > tol.width || std::abs(hole.y - flange.y) > tol.height)
     return false;
   const double expected = ratio_ * flange.r_vertical;
   return std::abs(hole.r - expected) <= params_.hole_ratio_tolerance * expected;

@@ -125,7 +125,9 @@ std::vector<ParamSpec> buildSpecs()
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",
              "relative deviation allowed from the hole/flange diameter ratio"),
       number("max_view_angle", FIELD(matcher.max_view_angle), 0.0, 1.2, "rad",
-             "widest angle off the spool axis the flange is seen at; widens concentric_tolerance by r^2/f*tan"),
+             "widest angle off the spool axis the flange is seen at, sideways; widens the window by r^2/f*tan"),
+      number("max_view_pitch", FIELD(matcher.max_view_pitch), 0.0, 1.2, "rad",
+             "the same up or down (camera pitch and height over the hole)"),
       // Geometry (thesis §3.4)
       number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m",
              "spool flange diameter"),

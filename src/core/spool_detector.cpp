@@ -131,9 +131,10 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, 
   for (const std::size_t i : order_)
   {
     const Circle& flange = flanges_[i];
-    const double tol = matcher_.centreTolerance(flange);
+    const cv::Size2d tol = matcher_.centreTolerance(flange);
     HoughSearch search = hole_search;
-    search.center_window = cv::Rect2d(flange.x - tol, flange.y - tol, 2.0 * tol + 1e-9, 2.0 * tol + 1e-9);
+    search.center_window =
+        cv::Rect2d(flange.x - tol.width, flange.y - tol.height, 2.0 * tol.width + 1e-9, 2.0 * tol.height + 1e-9);
     const double expected = flange.r_vertical * ratio;
     const double spread = params_.matcher.hole_ratio_tolerance * expected;
     search.r_min = std::max({search.r_min, expected - spread, 1.5});
@@ -141,9 +142,10 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, 
     if (search.r_min > search.r_max)
       continue;
     // Only edges that can lie on a concentric hole's rim, at the hole's own threshold.
-    const double reach = tol + search.r_max + 2.0;
-    const cv::Rect window(cvFloor(flange.x - reach), cvFloor(flange.y - reach), cvCeil(2.0 * reach) + 1,
-                          cvCeil(2.0 * reach) + 1);
+    const double reach_x = tol.width + search.r_max + 2.0;
+    const double reach_y = tol.height + search.r_max + 2.0;
+    const cv::Rect window(cvFloor(flange.x - reach_x), cvFloor(flange.y - reach_y), cvCeil(2.0 * reach_x) + 1,
+                          cvCeil(2.0 * reach_y) + 1);
     edge_detector_.extract(hp.hole_edge_threshold, window, hole_edges_);
     hole_hough_.detect(hole_edges_, preprocessed_.size(), search, holes_);
     if (const auto hole = matcher_.matchHole(flange, holes_))
