@@ -176,8 +176,8 @@ int run(int argc, char** argv)
       throw std::runtime_error("the flange was found in " + std::to_string(samples.size()) + " of " +
                                std::to_string(images.size()) + " images; the fit needs at least 2");
   }
-  const double flange_diameter = params.geometry.flange_diameter;
-  const sv::FocalFit fit = sv::fitFocalLength(samples, flange_diameter, size.height, o.lens_focal_length);
+  const sv::FocalFit fit =
+      sv::fitFocalLength(samples, params.geometry.flange_diameter, size.height, o.lens_focal_length);
   printFit(samples, labels, fit, size, o.lens_focal_length);
 
   if (!o.out.empty())

@@ -55,11 +55,11 @@ Options parseOptions(int argc, char** argv)
   o.height = line.positiveInteger("--height", 8192, 0);
   o.focal = line.positiveNumber("--focal", 0.0);
   o.count = line.positiveInteger("--count", 1000000, 0);
-  const std::string seed = line.text("--seed", "1");
+  const std::string seed = line.text("--seed", std::to_string(o.seed));
   if (seed.empty() || seed.find_first_not_of("0123456789") != std::string::npos)
     throw UsageError("--seed: expected a non-negative integer, got '" + seed + "'");
   o.seed = std::stoull(seed);
-  o.set = line.text("--set", "main");
+  o.set = line.text("--set", o.set);
   if (o.set != "main" && o.set != "approach" && o.set != "negatives")
     throw UsageError("--set: expected main, approach or negatives, got '" + o.set + "'");
   if (o.out.empty())
