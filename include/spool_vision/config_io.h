@@ -23,4 +23,7 @@ CameraIntrinsics loadCameraInfoYaml(const std::string& path);
 /// Writes intrinsics in that format (no distortion, identity rectification).
 std::string cameraInfoToYaml(const CameraIntrinsics& camera, const std::string& camera_name);
 
+/// Writes cameraInfoToYaml() to `path`. Throws std::runtime_error when it cannot.
+void saveCameraInfoYaml(const std::string& path, const CameraIntrinsics& camera, const std::string& camera_name);
+
 }  // namespace spool_vision

@@ -35,4 +35,25 @@ FocalFit fitFocalLength(const std::vector<FocalSample>& samples, double object_d
 /// one sample per line. Throws std::runtime_error naming the file and line.
 std::vector<FocalSample> loadFocalSamplesCsv(const std::string& path);
 
+/// One spool image taken at a tape-measured distance.
+struct CalibrationImage
+{
+  std::string path;
+  double distance = 0.0;  ///< m
+};
+
+/// Reads a list of calibration images: the same CSV layout with an `image` column instead of
+/// the diameter (e.g. "image,distance_m"). Relative image paths are resolved against the CSV's
+/// folder. Throws std::runtime_error naming the file and line.
+std::vector<CalibrationImage> loadCalibrationImagesCsv(const std::string& path);
+
+/// Fields of view (deg, horizontal) that bound the focal lengths a calibration may find.
+constexpr double kWidestFieldOfView = 120.0;
+constexpr double kNarrowestFieldOfView = 20.0;
+
+/// Flange radius range (px) to search for in an image taken at `distance` (m) while the focal
+/// length is still unknown: the radii of every camera `image_width` px wide whose horizontal
+/// field of view lies between kNarrowestFieldOfView and kWidestFieldOfView.
+void calibrationRadiusRange(double distance, double flange_diameter, int image_width, double& r_min, double& r_max);
+
 }  // namespace spool_vision

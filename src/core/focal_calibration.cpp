@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <stdexcept>
 
@@ -45,16 +47,28 @@ bool parseNumber(const std::string& text, double& value)
   }
 }
 
-}  // namespace
+// One data line of a calibration CSV: the distance in metres and the cell of the other column.
+struct DistanceRow
+{
+  double distance;
+  std::string value;
+  std::string where;  // "path:line: " for messages
+};
 
-std::vector<FocalSample> loadFocalSamplesCsv(const std::string& path)
+// Reads '#' comment lines, then a header naming a distance column (name contains "distance",
+// unit suffix _m, _cm or _mm) and a value column (`is_value_column`, described to the user as
+// `value_column`), then one row per line with a positive distance and a non-empty value.
+std::vector<DistanceRow> readDistanceCsv(const std::string& path,
+                                         const std::function<bool(const std::string&)>& is_value_column,
+                                         const std::string& value_column)
 {
   std::ifstream in(path);
   if (!in)
     throw std::runtime_error("cannot read " + path);
-  std::vector<FocalSample> samples;
+  std::vector<DistanceRow> rows;
+  std::vector<std::string> header;
   int distance_col = -1;
-  int diameter_col = -1;
+  int value_col = -1;
   double unit = 0.0;
   std::string line;
   for (int number = 1; std::getline(in, line); ++number)
@@ -79,27 +93,64 @@ std::vector<FocalSample> loadFocalSamplesCsv(const std::string& path)
           else if (endsWith(name, "_m"))
             unit = 1.0;
         }
-        else if (endsWith(name, "_px"))
-          diameter_col = c;
+        else if (is_value_column(name))
+          value_col = c;
       }
-      if (distance_col < 0 || diameter_col < 0 || unit == 0.0)
-        throw std::runtime_error(where +
-                                 "expected a header with a distance column ending in "
-                                 "_m, _cm or _mm and a diameter column ending in _px");
+      if (distance_col < 0 || value_col < 0 || unit == 0.0)
+        throw std::runtime_error(where + "expected a header with a distance column ending in _m, _cm or _mm and " +
+                                 value_column);
+      header = cells;
       continue;
     }
-    FocalSample sample;
-    if (static_cast<int>(cells.size()) <= std::max(distance_col, diameter_col) ||
-        !parseNumber(cells[distance_col], sample.distance) || !parseNumber(cells[diameter_col], sample.diameter_px))
-      throw std::runtime_error(where + "expected two numbers, got '" + line + "'");
-    sample.distance *= unit;
-    if (!(sample.distance > 0.0) || !(sample.diameter_px > 0.0))
-      throw std::runtime_error(where + "distance and diameter must be positive");
+    DistanceRow row{0.0, "", where};
+    if (static_cast<int>(cells.size()) <= std::max(distance_col, value_col) ||
+        !parseNumber(cells[distance_col], row.distance) || cells[value_col].empty())
+      throw std::runtime_error(where + "expected a number under '" + header[distance_col] + "' and a value under '" +
+                               header[value_col] + "', got '" + line + "'");
+    row.distance *= unit;
+    if (!(row.distance > 0.0))
+      throw std::runtime_error(where + "the distance must be positive");
+    row.value = cells[value_col];
+    rows.push_back(row);
+  }
+  if (rows.empty())
+    throw std::runtime_error(path + ": no samples");
+  return rows;
+}
+
+}  // namespace
+
+std::vector<FocalSample> loadFocalSamplesCsv(const std::string& path)
+{
+  std::vector<FocalSample> samples;
+  for (const DistanceRow& row : readDistanceCsv(
+           path, [](const std::string& name) { return endsWith(name, "_px"); }, "a diameter column ending in _px"))
+  {
+    FocalSample sample{row.distance, 0.0};
+    if (!parseNumber(row.value, sample.diameter_px) || !(sample.diameter_px > 0.0))
+      throw std::runtime_error(row.where + "the diameter must be a positive number, got '" + row.value + "'");
     samples.push_back(sample);
   }
-  if (samples.empty())
-    throw std::runtime_error(path + ": no samples");
   return samples;
+}
+
+std::vector<CalibrationImage> loadCalibrationImagesCsv(const std::string& path)
+{
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::vector<CalibrationImage> images;
+  for (const DistanceRow& row : readDistanceCsv(
+           path, [](const std::string& name) { return name == "image"; }, "an 'image' column"))
+    images.push_back({(folder / row.value).string(), row.distance});
+  return images;
+}
+
+void calibrationRadiusRange(double distance, double flange_diameter, int image_width, double& r_min, double& r_max)
+{
+  // A pinhole camera with horizontal field of view a has f = (w / 2) / tan(a / 2).
+  constexpr double kDeg = M_PI / 180.0;
+  const double half_width = 0.5 * image_width;
+  r_min = half_width / std::tan(0.5 * kWidestFieldOfView * kDeg) * 0.5 * flange_diameter / distance;
+  r_max = half_width / std::tan(0.5 * kNarrowestFieldOfView * kDeg) * 0.5 * flange_diameter / distance;
 }
 
 FocalFit fitFocalLength(const std::vector<FocalSample>& samples, double object_diameter, int image_height,

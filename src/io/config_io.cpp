@@ -116,4 +116,12 @@ std::string cameraInfoToYaml(const CameraIntrinsics& k, const std::string& camer
   return os.str();
 }
 
+void saveCameraInfoYaml(const std::string& path, const CameraIntrinsics& camera, const std::string& camera_name)
+{
+  std::ofstream out(path);
+  out << cameraInfoToYaml(camera, camera_name);
+  if (!out)
+    throw std::runtime_error("cannot write " + path);
+}
+
 }  // namespace spool_vision

@@ -90,6 +90,33 @@ const std::array<Vec3, 3>& lampDirections()
 }
 constexpr std::array<double, 3> kLampShare = {36.0, 81.0, 74.0};
 
+// The thesis' lamp switch conditions, in LampCondition order: name, measured illuminance range
+// (lx) and which of S1, S2, S3 are on.
+struct LampSpec
+{
+  const char* name;
+  double min_lux;
+  double max_lux;
+  std::array<bool, 3> on;
+};
+constexpr std::array<LampSpec, 4> kLampSpecs = {{{"S1+S2", 108.0, 126.0, {true, true, false}},
+                                                 {"S1+S3", 98.0, 121.0, {true, false, true}},
+                                                 {"S2+S3", 140.0, 170.0, {false, true, true}},
+                                                 {"S1+S2+S3", 179.0, 205.0, {true, true, true}}}};
+static_assert(kLampSpecs.size() == static_cast<std::size_t>(LampCondition::kAll) + 1, "one row per condition");
+
+const LampSpec& lampSpec(LampCondition lamps)
+{
+  return kLampSpecs[static_cast<std::size_t>(lamps)];
+}
+
+// The scene's illuminance (lx): as given, or the middle of its lamp condition's range.
+double sceneIlluminance(const SceneParams& p)
+{
+  const LampSpec& spec = lampSpec(p.lamps);
+  return p.illuminance > 0.0 ? p.illuminance : 0.5 * (spec.min_lux + spec.max_lux);
+}
+
 constexpr double kReferenceLux = 200.0;  // exposure that puts a 0.75 white wall near 190 DN
 constexpr double kAmbientFraction = 0.35;
 constexpr double kFrontCosine = 0.6;  // typical n.l of a face towards the camera
@@ -226,32 +253,13 @@ private:
 
   void setupLights()
   {
-    double lo = 0.0;
-    double hi = 0.0;
-    lampRange(p_.lamps, lo, hi);
-    const double lux = p_.illuminance > 0.0 ? p_.illuminance : 0.5 * (lo + hi);
-    std::array<bool, 3> on{};
-    switch (p_.lamps)
-    {
-      case LampCondition::kS1S2:
-        on = {true, true, false};
-        break;
-      case LampCondition::kS1S3:
-        on = {true, false, true};
-        break;
-      case LampCondition::kS2S3:
-        on = {false, true, true};
-        break;
-      case LampCondition::kAll:
-        on = {true, true, true};
-        break;
-    }
+    const std::array<bool, 3>& on = lampSpec(p_.lamps).on;
     double total = 0.0;
     for (int i = 0; i < 3; ++i)
       total += on[i] ? kLampShare[i] : 0.0;
     for (int i = 0; i < 3; ++i)
       lamp_weight_[i] = on[i] ? kLampShare[i] / total : 0.0;
-    light_scale_ = lux / kReferenceLux;
+    light_scale_ = sceneIlluminance(p_) / kReferenceLux;
   }
 
   double diffuse(const Vec3& n) const
@@ -554,6 +562,11 @@ CameraFrame cameraFrame(const CameraPose& pose)
   return f;
 }
 
+bool insideImage(const CameraIntrinsics& k, double u, double v)
+{
+  return u >= -0.5 && u <= k.width - 0.5 && v >= -0.5 && v <= k.height - 0.5;
+}
+
 Mat3 intrinsicMatrix(const CameraIntrinsics& k)
 {
   Mat3 m;
@@ -578,9 +591,7 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
     const Vec3 p = c + radius * (std::cos(a) * e1 + std::sin(a) * e2);
     if (p.z() < 1e-3)
       return std::nullopt;
-    const double u = k.fx * p.x() / p.z() + k.cx;
-    const double v = k.fy * p.y() / p.z() + k.cy;
-    if (u >= -0.5 && u <= k.width - 0.5 && v >= -0.5 && v <= k.height - 0.5)
+    if (insideImage(k, k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy))
       ++inside;
   }
   pc.visible_fraction = static_cast<double>(inside) / kRimSamples;
@@ -654,11 +665,6 @@ double litFraction(const CameraFrame& cam, double hole_radius, double bore_lengt
   return total > 0 ? static_cast<double>(lit) / total : 0.0;
 }
 
-bool insideImage(const CameraIntrinsics& k, double u, double v)
-{
-  return u >= -0.5 && u <= k.width - 0.5 && v >= -0.5 && v <= k.height - 0.5;
-}
-
 std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t salt)
 {
   // SplitMix64 finaliser: decorrelates nearby seeds.
@@ -676,6 +682,13 @@ void writeNumber(std::ostringstream& out, double value)
     out << "null";
 }
 
+// Writes `, "key": value`.
+void writeField(std::ostringstream& out, const char* key, double value)
+{
+  out << ", \"" << key << "\": ";
+  writeNumber(out, value);
+}
+
 void writeCircle(std::ostringstream& out, const std::optional<ProjectedCircle>& c)
 {
   if (!c)
@@ -685,24 +698,15 @@ void writeCircle(std::ostringstream& out, const std::optional<ProjectedCircle>& 
   }
   out << "{\"x\": ";
   writeNumber(out, c->x);
-  out << ", \"y\": ";
-  writeNumber(out, c->y);
-  out << ", \"r\": ";
-  writeNumber(out, c->r);
-  out << ", \"r_vertical\": ";
-  writeNumber(out, c->r_vertical);
-  out << ", \"semi_major\": ";
-  writeNumber(out, c->semi_major);
-  out << ", \"semi_minor\": ";
-  writeNumber(out, c->semi_minor);
-  out << ", \"angle\": ";
-  writeNumber(out, c->angle);
-  out << ", \"centre_x\": ";
-  writeNumber(out, c->centre_x);
-  out << ", \"centre_y\": ";
-  writeNumber(out, c->centre_y);
-  out << ", \"visible_fraction\": ";
-  writeNumber(out, c->visible_fraction);
+  writeField(out, "y", c->y);
+  writeField(out, "r", c->r);
+  writeField(out, "r_vertical", c->r_vertical);
+  writeField(out, "semi_major", c->semi_major);
+  writeField(out, "semi_minor", c->semi_minor);
+  writeField(out, "angle", c->angle);
+  writeField(out, "centre_x", c->centre_x);
+  writeField(out, "centre_y", c->centre_y);
+  writeField(out, "visible_fraction", c->visible_fraction);
   out << "}";
 }
 
@@ -710,59 +714,20 @@ void writeCircle(std::ostringstream& out, const std::optional<ProjectedCircle>& 
 
 const char* toString(LampCondition lamps)
 {
-  switch (lamps)
-  {
-    case LampCondition::kS1S2:
-      return "S1+S2";
-    case LampCondition::kS1S3:
-      return "S1+S3";
-    case LampCondition::kS2S3:
-      return "S2+S3";
-    case LampCondition::kAll:
-      return "S1+S2+S3";
-  }
-  return "?";
+  return lampSpec(lamps).name;
 }
 
 const char* toString(SceneKind kind)
 {
-  switch (kind)
-  {
-    case SceneKind::kSpool:
-      return "spool";
-    case SceneKind::kEmptySlot:
-      return "empty_slot";
-    case SceneKind::kPlate:
-      return "plate";
-    case SceneKind::kTapeRoll:
-      return "tape_roll";
-    case SceneKind::kCan:
-      return "can";
-  }
-  return "?";
+  static constexpr std::array<const char*, 5> kNames = {"spool", "empty_slot", "plate", "tape_roll", "can"};
+  static_assert(kNames.size() == static_cast<std::size_t>(SceneKind::kCan) + 1, "one name per kind");
+  return kNames[static_cast<std::size_t>(kind)];
 }
 
 void lampRange(LampCondition lamps, double& min_lux, double& max_lux)
 {
-  switch (lamps)
-  {
-    case LampCondition::kS1S2:
-      min_lux = 108.0;
-      max_lux = 126.0;
-      return;
-    case LampCondition::kS1S3:
-      min_lux = 98.0;
-      max_lux = 121.0;
-      return;
-    case LampCondition::kS2S3:
-      min_lux = 140.0;
-      max_lux = 170.0;
-      return;
-    case LampCondition::kAll:
-      min_lux = 179.0;
-      max_lux = 205.0;
-      return;
-  }
+  min_lux = lampSpec(lamps).min_lux;
+  max_lux = lampSpec(lamps).max_lux;
 }
 
 SpoolRenderer::SpoolRenderer(const CameraIntrinsics& camera) : camera_(camera)
@@ -777,10 +742,7 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   GroundTruth gt;
   gt.kind = scene.kind;
   gt.lamps = scene.lamps;
-  double lo = 0.0;
-  double hi = 0.0;
-  lampRange(scene.lamps, lo, hi);
-  gt.illuminance = scene.illuminance > 0.0 ? scene.illuminance : 0.5 * (lo + hi);
+  gt.illuminance = sceneIlluminance(scene);
   gt.pose = pose;
   gt.camera = camera_;
 
@@ -986,19 +948,16 @@ std::string groundTruthToJson(const GroundTruth& t)
 {
   std::ostringstream out;
   out << std::setprecision(10);
-  out << "{\"kind\": \"" << toString(t.kind) << "\", \"lamps\": \"" << toString(t.lamps) << "\", \"illuminance\": ";
-  writeNumber(out, t.illuminance);
+  out << "{\"kind\": \"" << toString(t.kind) << "\", \"lamps\": \"" << toString(t.lamps) << "\"";
+  writeField(out, "illuminance", t.illuminance);
   out << ", \"width\": " << t.camera.width << ", \"height\": " << t.camera.height
       << ", \"camera\": {\"fx\": " << t.camera.fx << ", \"fy\": " << t.camera.fy << ", \"cx\": " << t.camera.cx
       << ", \"cy\": " << t.camera.cy << "}"
       << ", \"pose\": {\"distance\": " << t.pose.distance << ", \"lateral\": " << t.pose.lateral
-      << ", \"height\": " << t.pose.height << ", \"yaw\": " << t.pose.yaw << ", \"pitch\": " << t.pose.pitch
-      << "}, \"distance\": ";
-  writeNumber(out, t.distance);
-  out << ", \"yaw\": ";
-  writeNumber(out, t.yaw);
-  out << ", \"lateral_offset\": ";
-  writeNumber(out, t.lateral_offset);
+      << ", \"height\": " << t.pose.height << ", \"yaw\": " << t.pose.yaw << ", \"pitch\": " << t.pose.pitch << "}";
+  writeField(out, "distance", t.distance);
+  writeField(out, "yaw", t.yaw);
+  writeField(out, "lateral_offset", t.lateral_offset);
   out << ", \"flange\": ";
   writeCircle(out, t.flange);
   out << ", \"hole\": ";
@@ -1010,10 +969,9 @@ std::string groundTruthToJson(const GroundTruth& t)
     out << "null";
   out << std::boolalpha << ", \"flange_half_visible\": " << t.flange_half_visible
       << ", \"hole_in_view\": " << t.hole_in_view << ", \"bore_visible\": " << t.bore_visible
-      << ", \"hole_lit_fraction\": " << t.hole_lit_fraction << ", \"puller_miss\": ";
-  writeNumber(out, t.puller_miss);
-  out << ", \"axis_angle\": ";
-  writeNumber(out, t.axis_angle);
+      << ", \"hole_lit_fraction\": " << t.hole_lit_fraction;
+  writeField(out, "puller_miss", t.puller_miss);
+  writeField(out, "axis_angle", t.axis_angle);
   out << ", \"aligned\": " << t.aligned << ", \"spool_centre_in_view\": " << t.spool_centre_in_view
       << ", \"neighbours\": [";
   for (std::size_t i = 0; i < t.neighbours.size(); ++i)
@@ -1021,10 +979,8 @@ std::string groundTruthToJson(const GroundTruth& t)
     out << (i ? ", " : "");
     out << "{\"flange\": ";
     writeCircle(out, t.neighbours[i].flange);
-    out << ", \"distance\": ";
-    writeNumber(out, t.neighbours[i].distance);
-    out << ", \"yaw\": ";
-    writeNumber(out, t.neighbours[i].yaw);
+    writeField(out, "distance", t.neighbours[i].distance);
+    writeField(out, "yaw", t.neighbours[i].yaw);
     out << "}";
   }
   out << "]}";

@@ -2,15 +2,14 @@
 // Contract: ../shared/DESIGN.md §6. Exit 0 = all images processed, 1 = some image failed,
 // 2 = bad option or config.
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
-#include <optional>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
-
+#include "cli_args.h"
+#include "image_file.h"
 #include "json_writer.h"
 #include "spool_vision/config_io.h"
 #include "spool_vision/spool_detector.h"
@@ -42,89 +41,6 @@ std::string circleJson(bool found, const spool_vision::Circle& c)
   return JsonObject().add("x", c.x, 2).add("y", c.y, 2).add("r", c.r, 2).str();
 }
 
-bool formatOf(const cv::Mat& image, spool_vision::PixelFormat& format)
-{
-  using spool_vision::PixelFormat;
-  switch (image.type())
-  {
-    case CV_8UC1:
-      format = PixelFormat::kMono8;
-      return true;
-    case CV_16UC1:
-      format = PixelFormat::kMono16;
-      return true;
-    case CV_8UC3:
-      format = PixelFormat::kBgr8;
-      return true;
-    case CV_8UC4:
-      format = PixelFormat::kBgra8;
-      return true;
-    default:
-      return false;
-  }
-}
-
-struct Options
-{
-  std::string config;
-  std::string camera_info;
-  std::string mode;
-  std::vector<std::string> paths;
-};
-
-// Returns false (after printing why) on a bad command line.
-bool parse(int argc, char** argv, Options& o)
-{
-  for (int i = 1; i < argc; ++i)
-  {
-    const std::string a = argv[i];
-    auto value = [&](std::string& out) {
-      if (i + 1 >= argc)
-      {
-        std::cerr << "spool_detect: " << a << " needs a value\n" << kUsage;
-        return false;
-      }
-      out = argv[++i];
-      return true;
-    };
-    if (a == "--help" || a == "-h")
-    {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    else if (a == "--config")
-    {
-      if (!value(o.config))
-        return false;
-    }
-    else if (a == "--camera-info")
-    {
-      if (!value(o.camera_info))
-        return false;
-    }
-    else if (a == "--mode")
-    {
-      if (!value(o.mode))
-        return false;
-    }
-    else if (a.size() > 1 && a[0] == '-')
-    {
-      std::cerr << "spool_detect: unknown option '" << a << "'\n" << kUsage;
-      return false;
-    }
-    else
-    {
-      o.paths.push_back(a);
-    }
-  }
-  if (o.paths.empty())
-  {
-    std::cerr << "spool_detect: no PATH given\n" << kUsage;
-    return false;
-  }
-  return true;
-}
-
 // Expands folders into their images (sorted); plain paths stay as given, even if missing, so
 // that they produce an error line in order.
 std::vector<std::string> expand(const std::vector<std::string>& paths)
@@ -149,16 +65,30 @@ std::vector<std::string> expand(const std::vector<std::string>& paths)
   }
   return files;
 }
-}  // namespace
 
-int main(int argc, char** argv)
+struct Options
 {
-  Options options;
-  if (!parse(argc, argv, options))
-    return 2;
+  std::string config;
+  std::string camera_info;
+  std::string mode;
+  std::vector<std::string> paths;
+};
 
+Options parseOptions(int argc, char** argv)
+{
+  const spool_vision::cli::CommandLine line(argc, argv, {"--config", "--camera-info", "--mode"}, kUsage,
+                                            /*allow_positional=*/true);
+  if (line.positional().empty())
+    throw spool_vision::cli::UsageError("no PATH given");
+  return {line.text("--config"), line.text("--camera-info"), line.text("--mode"), line.positional()};
+}
+
+int run(int argc, char** argv)
+{
+  const Options options = parseOptions(argc, argv);
   spool_vision::DetectorParams params;
   std::optional<spool_vision::CameraIntrinsics> camera;
+  std::optional<spool_vision::SpoolDetector> detector;
   try
   {
     if (!options.config.empty())
@@ -167,16 +97,14 @@ int main(int argc, char** argv)
       spool_vision::setParam(params, "mode", options.mode);
     if (!options.camera_info.empty())
       camera = spool_vision::loadCameraInfoYaml(options.camera_info);
+    detector.emplace(params);
   }
   catch (const std::exception& e)
   {
-    std::cerr << "spool_detect: " << e.what() << "\n";
-    return 2;
+    throw spool_vision::cli::UsageError(e.what(), /*show_usage=*/false);
   }
-
-  spool_vision::SpoolDetector detector(params);
   if (camera)
-    detector.setCamera(*camera);
+    detector->setCamera(*camera);
 
   bool any_failed = false;
   bool fallback_said = false;
@@ -184,29 +112,19 @@ int main(int argc, char** argv)
   {
     JsonObject out;
     out.add("image", path);
-    const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-    spool_vision::PixelFormat format;
-    if (image.empty() || !formatOf(image, format))
-    {
-      std::cout << out.add("error", image.empty() ? "cannot read image" : "unsupported pixel type " +
-                                                                             cv::typeToString(image.type()))
-                       .str()
-                << std::endl;
-      any_failed = true;
-      continue;
-    }
     try
     {
-      const spool_vision::SpoolDetection d = detector.detect(image, format);
-      if (detector.usingFallbackCamera() && !fallback_said)
+      const spool_vision::ImageFile file = spool_vision::readImageFile(path);
+      const spool_vision::SpoolDetection d = detector->detect(file.image, file.format);
+      if (detector->usingFallbackCamera() && !fallback_said)
       {
         std::cerr << "spool_detect: " << (camera ? "camera info does not match the image size; " : "no camera info; ")
                   << "using the thesis camera (f = " << params.geometry.fallback_focal_length
                   << " px at 120 rows, scaled)\n";
         fallback_said = true;
       }
-      out.add("width", image.cols)
-          .add("height", image.rows)
+      out.add("width", file.image.cols)
+          .add("height", file.image.rows)
           .add("detected", d.detected)
           .add("hole_detected", d.hole_detected)
           .add("distance", d.distance)
@@ -227,4 +145,10 @@ int main(int argc, char** argv)
     std::cout << out.str() << std::endl;
   }
   return any_failed ? 1 : 0;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  return spool_vision::cli::runTool("spool_detect", kUsage, [&] { return run(argc, argv); });
 }

@@ -6,13 +6,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <set>
 #include <stdexcept>
 #include <string>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "cli_args.h"
 #include "spool_vision/config_io.h"
 #include "spool_vision/spool_renderer.h"
 
@@ -44,77 +44,24 @@ struct Options
   std::string set = "main";
 };
 
-class UsageError : public std::runtime_error
-{
-  using std::runtime_error::runtime_error;
-};
-
-double parseNumber(const std::string& key, const std::string& text)
-{
-  std::size_t used = 0;
-  double value = 0.0;
-  try
-  {
-    value = std::stod(text, &used);
-  }
-  catch (const std::exception&)
-  {
-    used = 0;
-  }
-  if (used != text.size() || !std::isfinite(value) || value <= 0.0)
-    throw UsageError(key + ": expected a positive number, got '" + text + "'");
-  return value;
-}
-
-int parseCount(const std::string& key, const std::string& text, int max_value)
-{
-  const double value = parseNumber(key, text);
-  if (value != std::floor(value) || value > max_value)
-    throw UsageError(key + ": expected an integer in [1, " + std::to_string(max_value) + "], got '" + text + "'");
-  return static_cast<int>(value);
-}
-
 Options parseOptions(int argc, char** argv)
 {
+  using sv::cli::UsageError;
+  const sv::cli::CommandLine line(argc, argv, {"--out", "--width", "--height", "--focal", "--count", "--seed", "--set"},
+                                  kUsage);
   Options o;
-  for (int i = 1; i < argc; ++i)
-  {
-    const std::string key = argv[i];
-    if (key == "--help" || key == "-h")
-    {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    static const std::set<std::string> kKeys = {"--out",   "--width", "--height", "--focal",
-                                                "--count", "--seed",  "--set"};
-    if (!kKeys.count(key))
-      throw UsageError("unknown option '" + key + "'");
-    if (i + 1 >= argc)
-      throw UsageError(key + ": missing value");
-    const std::string value = argv[++i];
-    if (key == "--out")
-      o.out = value;
-    else if (key == "--width")
-      o.width = parseCount(key, value, 8192);
-    else if (key == "--height")
-      o.height = parseCount(key, value, 8192);
-    else if (key == "--focal")
-      o.focal = parseNumber(key, value);
-    else if (key == "--count")
-      o.count = parseCount(key, value, 1000000);
-    else if (key == "--seed")
-    {
-      if (value.empty() || value.find_first_not_of("0123456789") != std::string::npos)
-        throw UsageError("--seed: expected a non-negative integer, got '" + value + "'");
-      o.seed = std::stoull(value);
-    }
-    else
-    {
-      if (value != "main" && value != "approach" && value != "negatives")
-        throw UsageError("--set: expected main, approach or negatives, got '" + value + "'");
-      o.set = value;
-    }
-  }
+  o.out = line.text("--out");
+  o.width = line.positiveInteger("--width", 8192, 0);
+  o.height = line.positiveInteger("--height", 8192, 0);
+  o.focal = line.positiveNumber("--focal", 0.0);
+  o.count = line.positiveInteger("--count", 1000000, 0);
+  const std::string seed = line.text("--seed", std::to_string(o.seed));
+  if (seed.empty() || seed.find_first_not_of("0123456789") != std::string::npos)
+    throw UsageError("--seed: expected a non-negative integer, got '" + seed + "'");
+  o.seed = std::stoull(seed);
+  o.set = line.text("--set", o.set);
+  if (o.set != "main" && o.set != "approach" && o.set != "negatives")
+    throw UsageError("--set: expected main, approach or negatives, got '" + o.set + "'");
   if (o.out.empty())
     throw UsageError("--out is required");
   if (o.width == 0 || o.height == 0)
@@ -183,19 +130,15 @@ void approachFrame(const Options& o, int index, sv::SceneParams& scene, sv::Came
   pose.pitch = 0.0;
 }
 
-int run(const Options& o)
+int run(int argc, char** argv)
 {
   namespace fs = std::filesystem;
+  const Options o = parseOptions(argc, argv);
   fs::create_directories(o.out);
-  const double focal = o.focal > 0.0 ? o.focal : 200.0 * o.height / 120.0;
   sv::CameraIntrinsics camera = sv::CameraIntrinsics::thesisDefault(o.width, o.height);
-  camera.fx = camera.fy = focal;
-  {
-    std::ofstream yaml(fs::path(o.out) / "camera_info.yaml");
-    yaml << sv::cameraInfoToYaml(camera, "spool_render");
-    if (!yaml)
-      throw std::runtime_error("cannot write " + (fs::path(o.out) / "camera_info.yaml").string());
-  }
+  if (o.focal > 0.0)
+    camera.fx = camera.fy = o.focal;
+  sv::saveCameraInfoYaml((fs::path(o.out) / "camera_info.yaml").string(), camera, "spool_render");
   const sv::SpoolRenderer renderer(camera);
   for (int i = 0; i < o.count; ++i)
   {
@@ -228,23 +171,5 @@ int run(const Options& o)
 
 int main(int argc, char** argv)
 {
-  Options options;
-  try
-  {
-    options = parseOptions(argc, argv);
-  }
-  catch (const UsageError& e)
-  {
-    std::cerr << "spool_render: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
-  try
-  {
-    return run(options);
-  }
-  catch (const std::exception& e)
-  {
-    std::cerr << "spool_render: " << e.what() << "\n";
-    return 1;
-  }
+  return sv::cli::runTool("spool_render", kUsage, [&] { return run(argc, argv); });
 }

@@ -92,3 +92,42 @@ TEST(FocalCalibration, CsvUnitsAndErrors)
   EXPECT_THROW(sv::loadFocalSamplesCsv(writeTempCsv("focal_empty.csv", "distance_m,d_px\n")), std::runtime_error);
   EXPECT_THROW(sv::loadFocalSamplesCsv(::testing::TempDir() + "no_such_file.csv"), std::runtime_error);
 }
+
+TEST(FocalCalibration, ImageListResolvesPathsAgainstItsFolder)
+{
+  const std::string list = writeTempCsv("focal_images.csv",
+                                        "# spool images\nimage, distance_cm\n"
+                                        "frames/a.png, 80\n/abs/b.png, 125.5\n");
+  const std::vector<sv::CalibrationImage> images = sv::loadCalibrationImagesCsv(list);
+  ASSERT_EQ(images.size(), 2u);
+  EXPECT_EQ(images[0].path, ::testing::TempDir() + "frames/a.png");
+  EXPECT_DOUBLE_EQ(images[0].distance, 0.8);
+  EXPECT_EQ(images[1].path, "/abs/b.png");
+  EXPECT_DOUBLE_EQ(images[1].distance, 1.255);
+
+  EXPECT_THROW(sv::loadCalibrationImagesCsv(writeTempCsv("focal_images_nohead.csv", "a.png,0.8\n")),
+               std::runtime_error);
+  EXPECT_THROW(sv::loadCalibrationImagesCsv(writeTempCsv("focal_images_bad.csv", "image,distance_m\na.png,far\n")),
+               std::runtime_error);
+  EXPECT_THROW(sv::loadCalibrationImagesCsv(writeTempCsv("focal_images_neg.csv", "image,distance_m\na.png,-1\n")),
+               std::runtime_error);
+}
+
+TEST(FocalCalibration, RadiusRangeCoversEveryPlausibleCamera)
+{
+  // 640 px wide: f from 185 px (120 deg) to 1815 px (20 deg); the thesis camera (800 px) and a
+  // 77 deg webcam (400 px) lie inside, at any distance.
+  for (double distance : {0.3, 0.8, 1.5})
+  {
+    double r_min = 0.0;
+    double r_max = 0.0;
+    sv::calibrationRadiusRange(distance, 0.35, 640, r_min, r_max);
+    for (double f : {400.0, 800.0})
+    {
+      EXPECT_LT(r_min, f * 0.175 / distance);
+      EXPECT_GT(r_max, f * 0.175 / distance);
+    }
+    EXPECT_NEAR(r_min, 320.0 / std::tan(60.0 * M_PI / 180.0) * 0.175 / distance, 1e-9);
+    EXPECT_NEAR(r_max, 320.0 / std::tan(10.0 * M_PI / 180.0) * 0.175 / distance, 1e-9);
+  }
+}

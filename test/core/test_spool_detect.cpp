@@ -1,6 +1,5 @@
 // The command-line contract of spool_detect (DESIGN.md §6), checked on the real binary.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -11,38 +10,20 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "cli_process.h"
 #include "synthetic.h"
 
 namespace fs = std::filesystem;
 using spool_vision::CameraIntrinsics;
+using spool_vision::test::CliRun;
 using spool_vision::test::drawScene;
 using spool_vision::test::spoolAt;
 
 namespace
 {
-struct CliRun
-{
-  int exit_code;
-  std::vector<std::string> lines;
-};
-
 CliRun spoolDetect(const std::string& args)
 {
-  const std::string cmd = std::string(SPOOL_DETECT_BIN) + " " + args + " 2>/dev/null";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  CliRun run{-1, {}};
-  if (!pipe)
-    return run;
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof(buf), pipe))
-    out.append(buf, n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::istringstream lines(out);
-  for (std::string line; std::getline(lines, line);)
-    run.lines.push_back(line);
-  return run;
+  return spool_vision::test::runCommand(std::string(SPOOL_DETECT_BIN) + " " + args);
 }
 
 bool has(const std::string& line, const std::string& fragment)
@@ -122,7 +103,9 @@ TEST_F(SpoolDetectCli, BadOptionsAndConfigsExitTwo)
   std::ofstream(dir_ / "bad.yaml") << "sensitivity: 3\n";
   EXPECT_EQ(spoolDetect("--config " + (dir_ / "bad.yaml").string() + " " + dir_.string()).exit_code, 2);
   EXPECT_EQ(spoolDetect("--mode hough " + dir_.string()).exit_code, 2);
-  EXPECT_EQ(spoolDetect("--frobnicate " + dir_.string()).exit_code, 2);
+  const CliRun unknown = spoolDetect("--frobnicate " + dir_.string());
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.errors.find("spool_detect: unknown option '--frobnicate'"), std::string::npos) << unknown.errors;
   EXPECT_EQ(spoolDetect("--camera-info /nonexistent.yaml " + dir_.string()).exit_code, 2);
   EXPECT_EQ(spoolDetect("").exit_code, 2);
 }

@@ -1,0 +1,90 @@
+#include "cli_args.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+
+namespace spool_vision
+{
+namespace cli
+{
+CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& keys, const std::string& usage,
+                         bool allow_positional)
+{
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string word = argv[i];
+    if (word == "--help" || word == "-h")
+    {
+      std::cout << usage;
+      std::exit(0);
+    }
+    if (keys.count(word))
+    {
+      if (i + 1 >= argc)
+        throw UsageError(word + ": missing value");
+      options_[word] = argv[++i];
+    }
+    else if (word.size() > 1 && word[0] == '-')
+      throw UsageError("unknown option '" + word + "'");
+    else if (allow_positional)
+      positional_.push_back(word);
+    else
+      throw UsageError("unexpected argument '" + word + "'");
+  }
+}
+
+std::string CommandLine::text(const std::string& key, const std::string& fallback) const
+{
+  const auto it = options_.find(key);
+  return it == options_.end() ? fallback : it->second;
+}
+
+double CommandLine::positiveNumber(const std::string& key, double fallback) const
+{
+  if (!options_.count(key))
+    return fallback;
+  const std::string value = options_.at(key);
+  std::size_t used = 0;
+  double number = 0.0;
+  try
+  {
+    number = std::stod(value, &used);
+  }
+  catch (const std::exception&)
+  {
+    used = 0;
+  }
+  if (used != value.size() || !std::isfinite(number) || number <= 0.0)
+    throw UsageError(key + ": expected a positive number, got '" + value + "'");
+  return number;
+}
+
+int CommandLine::positiveInteger(const std::string& key, int max_value, int fallback) const
+{
+  const double number = positiveNumber(key, fallback);
+  if (number != std::floor(number) || number > max_value)
+    throw UsageError(key + ": expected an integer in [1, " + std::to_string(max_value) + "], got '" + text(key) + "'");
+  return static_cast<int>(number);
+}
+
+int runTool(const std::string& tool, const std::string& usage, const std::function<int()>& body)
+{
+  try
+  {
+    return body();
+  }
+  catch (const UsageError& e)
+  {
+    std::cerr << tool << ": " << e.what() << "\n" << (e.showUsage() ? usage : "");
+    return 2;
+  }
+  catch (const std::exception& e)
+  {
+    std::cerr << tool << ": " << e.what() << "\n";
+    return 1;
+  }
+}
+
+}  // namespace cli
+}  // namespace spool_vision

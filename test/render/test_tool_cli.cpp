@@ -1,0 +1,233 @@
+// spool_calibrate and spool_render checked as a user runs them: a process, its output, its
+// exit code and the files it writes. The calibration images come from the renderer, so the
+// focal length they were taken with is known exactly.
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "cli_process.h"
+#include "spool_vision/config_io.h"
+#include "spool_vision/spool_renderer.h"
+
+namespace fs = std::filesystem;
+namespace sv = spool_vision;
+using sv::test::CliRun;
+
+namespace
+{
+const std::string kAppendixB = std::string(SPOOL_TEST_DATA_DIR) + "/appendix_b_sensor_height.csv";
+
+CliRun spoolCalibrate(const std::string& args)
+{
+  return sv::test::runCommand(std::string(SPOOL_CALIBRATE_BIN) + " " + args);
+}
+
+CliRun spoolRender(const std::string& args)
+{
+  return sv::test::runCommand(std::string(SPOOL_RENDER_BIN) + " " + args);
+}
+
+bool has(const std::string& text, const std::string& fragment)
+{
+  return text.find(fragment) != std::string::npos;
+}
+
+// The number after "focal length: " in spool_calibrate's report, NaN without one.
+double reportedFocal(const CliRun& run)
+{
+  for (const std::string& line : run.lines)
+    if (line.rfind("focal length: ", 0) == 0)
+      return std::strtod(line.c_str() + 14, nullptr);
+  return std::nan("");
+}
+
+fs::path freshDir(const std::string& name)
+{
+  const fs::path dir = fs::path(::testing::TempDir()) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Renders the spool at 60-130 cm on random shelves (neighbours, labels, noise, JPEG) with a
+// camera of focal length `focal`, and lists the frames with their distances in dir/list.csv
+// (relative paths). `extra_rows` are appended to the list as they are.
+fs::path renderCalibrationSet(const fs::path& dir, int width, int height, double focal,
+                              const std::string& extra_rows = "")
+{
+  sv::CameraIntrinsics camera = sv::CameraIntrinsics::thesisDefault(width, height);
+  camera.fx = camera.fy = focal;
+  const sv::SpoolRenderer renderer(camera);
+  fs::create_directories(dir / "frames");
+  std::ofstream list(dir / "list.csv");
+  list << "# spool images at tape-measured distances\nimage,distance_m\n";
+  for (int i = 0; i < 8; ++i)
+  {
+    sv::CameraPose pose;
+    pose.distance = 0.6 + 0.1 * i;
+    const sv::RenderedFrame frame = renderer.render(sv::randomScene(sv::SceneKind::kSpool, 100 + i), pose);
+    const std::string name = "frames/d" + std::to_string(i) + ".png";
+    cv::imwrite((dir / name).string(), frame.image);
+    list << name << "," << frame.truth.distance << "\n";
+  }
+  list << extra_rows;
+  return dir / "list.csv";
+}
+
+struct CalibrationCase
+{
+  int width;
+  int height;
+  double focal;
+};
+
+class SpoolCalibrateImages : public ::testing::TestWithParam<CalibrationCase>
+{
+};
+}  // namespace
+
+TEST_P(SpoolCalibrateImages, FitsTheFocalLengthTheImagesWereRenderedWith)
+{
+  const CalibrationCase c = GetParam();
+  const fs::path dir =
+      freshDir("calibrate_" + std::to_string(c.width) + "_" + std::to_string(static_cast<int>(c.focal)));
+  // An image without a spool and a missing one are reported and skipped.
+  cv::imwrite((dir / "blank.png").string(), cv::Mat(c.height, c.width, CV_8UC3, cv::Scalar::all(128)));
+  const fs::path list = renderCalibrationSet(dir, c.width, c.height, c.focal, "blank.png,0.8\nmissing.png,0.9\n");
+  const fs::path yaml = dir / "camera.yaml";
+
+  const CliRun run = spoolCalibrate("--images " + list.string() + " --out " + yaml.string());
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  EXPECT_NEAR(reportedFocal(run), c.focal, 0.01 * c.focal);
+  EXPECT_TRUE(has(run.errors, "blank.png: no flange found")) << run.errors;
+  EXPECT_TRUE(has(run.errors, "missing.png: no such file")) << run.errors;
+  EXPECT_TRUE(std::find(run.lines.begin(), run.lines.end(), "samples: 8") != run.lines.end());
+
+  const sv::CameraIntrinsics camera = sv::loadCameraInfoYaml(yaml.string());
+  EXPECT_EQ(camera.width, c.width);
+  EXPECT_EQ(camera.height, c.height);
+  EXPECT_NEAR(camera.fx, c.focal, 0.01 * c.focal);
+  EXPECT_DOUBLE_EQ(camera.fy, camera.fx);
+  EXPECT_DOUBLE_EQ(camera.cx, (c.width - 1) / 2.0);
+  EXPECT_DOUBLE_EQ(camera.cy, (c.height - 1) / 2.0);
+}
+
+// The thesis camera at VGA and at the thesis' own 160x120, and a wide-angle webcam (77 deg) whose
+// flanges lie outside the radius range the detector would derive from its fallback camera.
+INSTANTIATE_TEST_SUITE_P(Cameras, SpoolCalibrateImages,
+                         ::testing::Values(CalibrationCase{640, 480, 800.0}, CalibrationCase{160, 120, 200.0},
+                                           CalibrationCase{640, 480, 400.0}));
+
+TEST(SpoolCalibrateCli, FewerThanTwoFlangesIsAnError)
+{
+  const fs::path dir = freshDir("calibrate_too_few");
+  cv::imwrite((dir / "blank.png").string(), cv::Mat(120, 160, CV_8UC3, cv::Scalar::all(128)));
+  std::ofstream(dir / "list.csv") << "image,distance_cm\nblank.png,80\nmissing.png,90\n";
+  const CliRun run = spoolCalibrate("--images " + (dir / "list.csv").string());
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_TRUE(has(run.errors, "found in 0 of 2 images; the fit needs at least 2")) << run.errors;
+}
+
+TEST(SpoolCalibrateCli, AppendixBCsvGivesTheThesisCamera)
+{
+  const fs::path yaml = freshDir("calibrate_csv") / "camera.yaml";
+  const CliRun run = spoolCalibrate("--csv " + kAppendixB + " --width 160 --height 120 --out " + yaml.string());
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  EXPECT_NEAR(reportedFocal(run), 200.5, 0.5);
+  const sv::CameraIntrinsics camera = sv::loadCameraInfoYaml(yaml.string());
+  EXPECT_EQ(camera.height, 120);
+  EXPECT_NEAR(camera.fx, 200.5, 0.5);
+}
+
+TEST(SpoolCalibrateCli, BadOptionsExitTwoNamingTheOption)
+{
+  const fs::path dir = freshDir("calibrate_bad");
+  std::ofstream(dir / "bad.yaml") << "sensitivity: 3\n";
+  struct Case
+  {
+    std::string args;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {"--frobnicate 1", "unknown option '--frobnicate'"},
+      {"", "give either --csv or --images"},
+      {"--csv a.csv --images b.csv", "give either --csv or --images"},
+      {"--csv " + kAppendixB, "--width and --height are required"},
+      {"--csv " + kAppendixB + " --width 160 --height x", "--height: expected a positive number, got 'x'"},
+      {"--images list.csv --width 160", "--width/--height go with --csv"},
+      {"--csv " + kAppendixB + " --width 160 --height 120 --flange-diameter", "--flange-diameter: missing value"},
+      {"--images list.csv --config " + (dir / "bad.yaml").string(), "parameter 'sensitivity'"},
+      {"--csv " + kAppendixB + " stray", "unexpected argument 'stray'"},
+  };
+  for (const Case& c : cases)
+  {
+    const CliRun run = spoolCalibrate(c.args);
+    EXPECT_EQ(run.exit_code, 2) << c.args;
+    EXPECT_TRUE(has(run.errors, "spool_calibrate: " + c.message)) << c.args << "\n" << run.errors;
+  }
+}
+
+TEST(SpoolCalibrateCli, MissingFilesAreClearErrors)
+{
+  const std::string missing = ::testing::TempDir() + "no_such_list.csv";
+  for (const std::string& option : {"--images " + missing, "--csv " + missing + " --width 160 --height 120"})
+  {
+    const CliRun run = spoolCalibrate(option);
+    EXPECT_EQ(run.exit_code, 1) << option;
+    EXPECT_TRUE(has(run.errors, "spool_calibrate: cannot read " + missing)) << run.errors;
+  }
+}
+
+TEST(SpoolRenderCli, WritesFramesTruthAndCameraInfo)
+{
+  const fs::path dir = freshDir("render_cli") / "out";
+  const CliRun run = spoolRender("--out " + dir.string() + " --width 64 --height 48 --count 2 --set approach");
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  for (const char* name : {"frame_00000.png", "frame_00000.json", "frame_00001.png", "frame_00001.json"})
+    EXPECT_TRUE(fs::exists(dir / name)) << name;
+  const sv::CameraIntrinsics camera = sv::loadCameraInfoYaml((dir / "camera_info.yaml").string());
+  EXPECT_EQ(camera.width, 64);
+  EXPECT_DOUBLE_EQ(camera.fx, 200.0 * 48 / 120.0);  // the thesis camera without --focal
+}
+
+TEST(SpoolRenderCli, BadOptionsExitTwoNamingTheOption)
+{
+  const std::string out = "--out " + ::testing::TempDir() + "render_bad";
+  struct Case
+  {
+    std::string args;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {out + " --width 64 --height 48 --frobnicate", "unknown option '--frobnicate'"},
+      {"--width 64 --height 48", "--out is required"},
+      {out + " --width 0 --height 48", "--width: expected a positive number, got '0'"},
+      {out + " --width 64 --height 48 --count 1.5", "--count: expected an integer in [1, 1000000], got '1.5'"},
+      {out + " --width 64 --height 48 --set all", "--set: expected main, approach or negatives, got 'all'"},
+      {out + " --width 64 --height 48 --seed -1", "--seed: expected a non-negative integer, got '-1'"},
+      {out + " --width 16 --height 48", "--width/--height: at least 32 px"},
+  };
+  for (const Case& c : cases)
+  {
+    const CliRun run = spoolRender(c.args);
+    EXPECT_EQ(run.exit_code, 2) << c.args;
+    EXPECT_TRUE(has(run.errors, "spool_render: " + c.message)) << c.args << "\n" << run.errors;
+  }
+}
+
+TEST(SpoolRenderCli, UnwritableOutputIsAClearError)
+{
+  const fs::path file = freshDir("render_unwritable") / "a_file";
+  std::ofstream(file) << "not a folder";
+  const CliRun run = spoolRender("--out " + (file / "out").string() + " --width 64 --height 48 --count 1");
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_TRUE(has(run.errors, "spool_render: ")) << run.errors;
+  EXPECT_TRUE(has(run.errors, (file / "out").string())) << run.errors;
+}
