@@ -1,4 +1,5 @@
 #include <cmath>
+#include <random>
 #include <string>
 
 #include "spool_vision/evaluation.h"
@@ -24,7 +25,9 @@ SceneKind randomNegative(cv::RNG& rng)
 void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& scene, CameraPose& pose)
 {
   const std::uint64_t seed = frameSeed(set_seed, index);
-  cv::RNG rng(seed);
+  // cv::RNG's first draws follow its seed almost linearly, so consecutive frame seeds would put
+  // the poses on a lattice; one Mersenne Twister step scatters them.
+  cv::RNG rng{std::mt19937_64(seed)()};
   SceneKind kind = SceneKind::kSpool;
   if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
     kind = randomNegative(rng);

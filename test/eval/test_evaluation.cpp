@@ -355,9 +355,12 @@ TEST(LabelledSets, AreAFunctionOfTheSeedAndCoverTheWorkingRange)
   EXPECT_EQ(pa.distance, pb.distance);
   EXPECT_EQ(pa.lateral, pb.lateral);
 
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(160, 120));
   int negatives = 0;
   int near = 0;
   int far = 0;
+  int left = 0;
+  int right = 0;
   for (int i = 0; i < 200; ++i)
   {
     sv::SceneParams scene;
@@ -368,15 +371,21 @@ TEST(LabelledSets, AreAFunctionOfTheSeedAndCoverTheWorkingRange)
     EXPECT_LE(pose.distance, 1.1);
     near += pose.distance < 0.6 ? 1 : 0;
     far += pose.distance > 1.0 ? 1 : 0;
+    // The slot's bearing (negatives have none).
+    const double bearing = renderer.groundTruth(scene, pose).yaw;
+    left += bearing < -10.0 * M_PI / 180.0 ? 1 : 0;
+    right += bearing > 10.0 * M_PI / 180.0 ? 1 : 0;
 
     sv::setFrame(sv::FrameSet::kNegatives, 1, i, 200, scene, pose);
     EXPECT_NE(scene.kind, sv::SceneKind::kSpool);
   }
   EXPECT_GT(negatives, 10);  // about 15%
   EXPECT_LT(negatives, 50);
-  // Uniform draws: about a sixth of the frames in each distance end.
+  // Uniform draws: about a sixth of the frames in each distance end, a quarter beyond +-10 deg.
   EXPECT_GT(near, 15);
   EXPECT_GT(far, 15);
+  EXPECT_GT(left, 20);
+  EXPECT_GT(right, 20);
 }
 
 // Loose bars for small samples: they catch a broken evaluation or a collapsed detector, not
