@@ -143,7 +143,8 @@ int main(int argc, char** argv)
   config.pose_repeats = options.repeats;
   try
   {
-    cv::setNumThreads(1);  // the speed bars are per core
+    std::filesystem::create_directories(options.out);  // fail before the run, not after it
+    cv::setNumThreads(1);                              // the speed bars are per core
     const auto start = std::chrono::steady_clock::now();
     const sv::EvaluationResult result = sv::runEvaluation(config, showProgress);
     sv::writeReport(result, options.out);
