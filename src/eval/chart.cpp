@@ -241,10 +241,17 @@ cv::Mat draw(const LineChart& chart)
     legend.push_back({l.label, kLevelInk, LegendEntry::kLevel});
     extend(l.y, y_lo, y_hi);
   }
+  // Nothing to draw on an axis: a unit range.
   if (!std::isfinite(x_lo))
-    x_lo = 0.0, x_hi = 1.0;
+  {
+    x_lo = 0.0;
+    x_hi = 1.0;
+  }
   if (!std::isfinite(y_lo))
-    y_lo = 0.0, y_hi = 1.0;
+  {
+    y_lo = 0.0;
+    y_hi = 1.0;
+  }
   const std::vector<double> x_ticks = ticks(x_lo, x_hi, 8);
   const std::vector<double> y_ticks = ticks(y_lo, y_hi, 6);
 

@@ -1,8 +1,11 @@
 // The evaluation run: renders each setup's sets once, then runs the configuration as loaded, the
 // thesis' variants and the controlled poses on those frames.
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <string>
 
+#include "spool_vision/config_io.h"
 #include "spool_vision/evaluation.h"
 
 namespace spool_vision
@@ -219,13 +222,21 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
     setup_result.baseline_ms = baselineMedianMs(baseline, frames);
     result.setups.push_back(setup_result);
 
+    // Variants that come out equal to the configuration (or to each other) run once.
+    std::map<std::string, Metrics> by_params = {{paramsToYaml(setup.params), setup_result.metrics}};
     const Progress variants_progress = step("detector variants");
     int done = 0;
     for (size_t a = 0; a < specs.size(); ++a)
       for (size_t r = 0; r < specs[a].rows.size(); ++r)
       {
-        SpoolDetector variant(withOverrides(setup.params, specs[a].rows[r].overrides));
-        result.analyses[a].rows[r].per_setup.push_back(summarize(evaluate(variant, frames)));
+        const DetectorParams params = withOverrides(setup.params, specs[a].rows[r].overrides);
+        auto [known, fresh] = by_params.try_emplace(paramsToYaml(params));
+        if (fresh)
+        {
+          SpoolDetector variant(params);
+          known->second = summarize(evaluate(variant, frames));
+        }
+        result.analyses[a].rows[r].per_setup.push_back(known->second);
         variants_progress("", ++done, variant_count);
       }
     for (size_t c = 0; c < lamp_conditions.size(); ++c)

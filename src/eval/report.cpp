@@ -1,6 +1,5 @@
 // The report: the §7 headline table, the failure breakdown, the thesis analyses as Markdown
 // tables, and their PNG charts.
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
