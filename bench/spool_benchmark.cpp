@@ -8,8 +8,7 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/imgproc.hpp>
-
+#include "spool_vision/evaluation.h"
 #include "spool_vision/spool_detector.h"
 #include "synthetic.h"
 
@@ -60,26 +59,16 @@ void houghCircles(benchmark::State& state)
   const int width = static_cast<int>(state.range(0));
   const int height = static_cast<int>(state.range(1));
   const auto images = frames(width, height);
-  const auto k = CameraIntrinsics::thesisDefault(width, height);
-  // Same radius ranges as the detector derives from 0.45-1.2 m.
-  const int flange_min = cvFloor(k.fy * 0.175 / 1.2);
-  const int flange_max = cvCeil(k.fy * 0.175 / 0.45);
-  const int hole_min = std::max(1, cvFloor(k.fy * 0.018 / 1.2));
-  const int hole_max = cvCeil(k.fy * 0.018 / 0.45);
-  cv::Mat gray;
-  cv::Mat blurred;
-  std::vector<cv::Vec3f> flanges;
-  std::vector<cv::Vec3f> holes;
+  // Same radius ranges as the detector searches with its defaults.
+  spool_vision::HoughCirclesBaseline baseline(
+      spool_vision::searchRadii(spool_vision::DetectorParams(), CameraIntrinsics::thesisDefault(width, height)));
   size_t i = 0;
   int detected = 0;
   for (auto _ : state)
   {
-    cv::cvtColor(images[i++ % images.size()], gray, cv::COLOR_BGR2GRAY);
-    cv::GaussianBlur(gray, blurred, cv::Size(), 1.5);
-    cv::HoughCircles(blurred, flanges, cv::HOUGH_GRADIENT, 2, flange_min, 100, 30, flange_min, flange_max);
-    cv::HoughCircles(blurred, holes, cv::HOUGH_GRADIENT, 1, hole_min, 100, 15, hole_min, hole_max);
-    detected += flanges.empty() ? 0 : 1;
-    benchmark::DoNotOptimize(holes.data());
+    baseline.detect(images[i++ % images.size()]);
+    detected += baseline.flanges().empty() ? 0 : 1;
+    benchmark::DoNotOptimize(baseline.holes().data());
   }
   state.counters["detected"] = benchmark::Counter(detected, benchmark::Counter::kAvgIterations);
 }

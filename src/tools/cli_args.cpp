@@ -9,7 +9,7 @@ namespace spool_vision
 namespace cli
 {
 CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& keys, const std::string& usage,
-                         bool allow_positional)
+                         bool allow_positional, const std::set<std::string>& flags)
 {
   for (int i = 1; i < argc; ++i)
   {
@@ -19,7 +19,9 @@ CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& key
       std::cout << usage;
       std::exit(0);
     }
-    if (keys.count(word))
+    if (flags.count(word))
+      flags_.insert(word);
+    else if (keys.count(word))
     {
       if (i + 1 >= argc)
         throw UsageError(word + ": missing value");
@@ -66,6 +68,16 @@ int CommandLine::positiveInteger(const std::string& key, int max_value, int fall
   if (number != std::floor(number) || number > max_value)
     throw UsageError(key + ": expected an integer in [1, " + std::to_string(max_value) + "], got '" + text(key) + "'");
   return static_cast<int>(number);
+}
+
+std::uint64_t CommandLine::seed(const std::string& key, std::uint64_t fallback) const
+{
+  if (!options_.count(key))
+    return fallback;
+  const std::string value = options_.at(key);
+  if (value.empty() || value.size() > 19 || value.find_first_not_of("0123456789") != std::string::npos)
+    throw UsageError(key + ": expected a non-negative integer, got '" + value + "'");
+  return std::stoull(value);
 }
 
 int runTool(const std::string& tool, const std::string& usage, const std::function<int()>& body)

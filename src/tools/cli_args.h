@@ -2,6 +2,7 @@
 // checks whose messages name the option, and the exit codes (0 ok, 1 failed, 2 bad command line).
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <set>
@@ -38,9 +39,15 @@ public:
   /// Each of `keys` takes one value (the last one given counts); "--help" or "-h" prints
   /// `usage` on stdout and exits 0; any other word starting with '-' (but "-" alone) is an
   /// unknown option. Throws UsageError naming the option, and on positional arguments unless
-  /// `allow_positional`.
+  /// `allow_positional`. Each of `flags` stands alone, without a value.
   CommandLine(int argc, char** argv, const std::set<std::string>& keys, const std::string& usage,
-              bool allow_positional = false);
+              bool allow_positional = false, const std::set<std::string>& flags = {});
+
+  /// Whether the flag was given.
+  bool has(const std::string& flag) const
+  {
+    return flags_.count(flag) > 0;
+  }
 
   /// The option's value, `fallback` when it was not given.
   std::string text(const std::string& key, const std::string& fallback = "") const;
@@ -48,6 +55,8 @@ public:
   double positiveNumber(const std::string& key, double fallback) const;
   /// The option as an integer in [1, max_value], `fallback` when it was not given.
   int positiveInteger(const std::string& key, int max_value, int fallback) const;
+  /// The option as a non-negative integer (a random seed), `fallback` when it was not given.
+  std::uint64_t seed(const std::string& key, std::uint64_t fallback) const;
 
   const std::vector<std::string>& positional() const
   {
@@ -57,6 +66,7 @@ public:
 private:
   std::map<std::string, std::string> options_;
   std::vector<std::string> positional_;
+  std::set<std::string> flags_;
 };
 
 /// A tool's main: runs `body` and returns its exit code. A UsageError prints "tool: what" (and

@@ -1,0 +1,316 @@
+// Evaluation of the detector on rendered frames with exact ground truth (ROS-free): the labelled
+// sets, per-frame scoring against the spool the robot should pick, summary metrics, the
+// cv::HoughCircles baseline and the report of DESIGN.md §7 plus the thesis' chapter 4 analyses.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/detector_params.h"
+#include "spool_vision/spool_detector.h"
+#include "spool_vision/spool_renderer.h"
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+// ---------------------------------------------------------------------------------------------
+// Labelled sets (what spool_render writes; the same seed gives the same frames at any size).
+
+enum class FrameSet
+{
+  kMain,       ///< spools at 50-110 cm and +-20 deg bearing, about 15% negatives mixed in
+  kApproach,   ///< one spool from 110 cm to 50 cm, ending aligned
+  kNegatives,  ///< empty slots, plates, tape rolls and cans (neighbour spools may stand beside)
+};
+
+/// The camera `distance` m from the slot's flange centre, seeing it at `bearing` rad off the
+/// optical axis with the robot's heading off by `heading` rad.
+CameraPose bearingPose(double distance, double bearing, double heading, double height, double pitch);
+
+/// Scene and pose of frame `index` of a `count`-frame set drawn from `seed`.
+void setFrame(FrameSet set, std::uint64_t seed, int index, int count, SceneParams& scene, CameraPose& pose);
+
+/// Reports progress of a long step: what, how many done, of how many.
+using Progress = std::function<void(const std::string& what, int done, int total)>;
+
+/// Renders a whole set in memory.
+std::vector<RenderedFrame> renderSet(const SpoolRenderer& renderer, FrameSet set, std::uint64_t seed, int count,
+                                     const Progress& progress = {});
+
+// ---------------------------------------------------------------------------------------------
+// Scoring. The target is the spool in front of the robot: among the spools whose flange centre
+// is in view (the slot's spool and its neighbours), the one with the smallest |yaw|.
+
+/// A spool as the scorer sees it.
+struct SpoolTruth
+{
+  ProjectedCircle flange;
+  double distance = 0.0;  ///< m
+  double yaw = 0.0;       ///< rad, bearing from the puller column
+  bool in_slot = false;   ///< the slot's own spool (its hole and bore are in the ground truth)
+};
+
+/// Every spool of the frame (in view or not), the slot's spool first when there is one.
+std::vector<SpoolTruth> renderedSpools(const GroundTruth& truth);
+
+/// The spool the robot should pick; nullopt when no spool centre is in view.
+std::optional<SpoolTruth> targetSpool(const GroundTruth& truth);
+
+/// A found flange is on a spool when its centre lies within max(3 px, 0.1 r) of the projected
+/// rim's centre and its radius within 10%.
+bool flangeMatches(const ProjectedCircle& truth, const Circle& found);
+
+/// A found hole is on the bore when its centre lies within max(2 px, 0.25 r) of the opening's
+/// centre and its radius within max(1 px, 25%): holes are a few pixels wide at 160x120.
+bool holeMatches(const ProjectedCircle& truth, const Circle& found);
+
+/// The bar's working range: 50-110 cm and +-20 deg bearing.
+constexpr double kWorkingDistanceMin = 0.5;
+constexpr double kWorkingDistanceMax = 1.1;
+constexpr double kWorkingBearingMax = 20.0 * M_PI / 180.0;
+
+/// One frame scored against its ground truth.
+struct FrameScore
+{
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+  LampCondition lamps = LampCondition::kAll;
+  bool has_target = false;          ///< some spool centre in view
+  bool flange_eligible = false;     ///< target: half its rim in view, in the working range
+  bool hole_eligible = false;       ///< flange_eligible, slot spool, bore shows through, opening in view
+  bool neighbours_in_view = false;  ///< another spool centre in view beside the target
+  bool detected = false;            ///< the detector reported a flange
+  bool correct = false;             ///< ... on the target
+  bool on_other_spool = false;      ///< ... on another rendered spool
+  bool hole_reported = false;       ///< the detector reported a hole
+  bool hole_judged = false;         ///< its hole truth is known (target in the slot, or no target)
+  bool hole_correct = false;        ///< correct flange and a hole on the slot spool's bore
+  double distance_error = kNaN;     ///< (measured - true) / true, correct detections only
+  double yaw_error = kNaN;          ///< rad, measured - true, correct detections only
+  double time_ms = 0.0;             ///< the detector's own time
+};
+
+FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection);
+
+/// hits out of frames; value() is NaN without frames.
+struct Rate
+{
+  int hits = 0;
+  int frames = 0;
+  void add(bool eligible, bool hit)
+  {
+    frames += eligible ? 1 : 0;
+    hits += eligible && hit ? 1 : 0;
+  }
+  double value() const
+  {
+    return frames > 0 ? static_cast<double>(hits) / frames : std::numeric_limits<double>::quiet_NaN();
+  }
+};
+
+/// The `fraction` quantile (0..1) of the finite values, linear between order statistics; NaN
+/// when there are none.
+double percentile(std::vector<double> values, double fraction);
+
+/// Median, 95th percentile and count of the finite values.
+struct Spread
+{
+  double median = std::numeric_limits<double>::quiet_NaN();
+  double p95 = std::numeric_limits<double>::quiet_NaN();
+  int count = 0;
+};
+Spread spreadOf(const std::vector<double>& values);
+
+/// The §7 metrics of a scored set.
+struct Metrics
+{
+  Rate flange_found;  ///< correct / flange_eligible
+  Rate hole_found;    ///< hole_correct / hole_eligible (the thesis' "spool detected": BC and SC)
+  Rate false_spool;   ///< detected / frames without a spool centre in view
+  Rate wrong_target;  ///< detected elsewhere than the target / frames with neighbours in view
+  Rate false_hole;    ///< hole not on the bore / holes reported where the hole truth is known
+  // Where the flange-eligible frames went wrong.
+  int missed = 0;
+  int on_other_spool = 0;
+  int bogus = 0;          ///< a flange on no spool at all
+  Spread distance_error;  ///< |relative|, correct detections on flange-eligible frames
+  Spread yaw_error_deg;   ///< |deg|, same frames
+  Spread time_ms;         ///< every frame
+};
+
+Metrics summarize(const std::vector<FrameScore>& scores);
+
+/// Runs the detector on every frame (with the frames' camera) and scores it.
+std::vector<FrameScore> evaluate(SpoolDetector& detector, const std::vector<RenderedFrame>& frames);
+
+// ---------------------------------------------------------------------------------------------
+// cv::HoughCircles doing the detector's two-range job (flange radii, hole radii) on the same
+// frames: the speed baseline of §7. Shared by the evaluation and bench/spool_benchmark.cpp.
+
+struct RadiusRanges
+{
+  double flange_min = 0.0;
+  double flange_max = 0.0;
+  double hole_min = 0.0;
+  double hole_max = 0.0;
+};
+
+/// The radius ranges the detector searches with `params` on frames of `camera`: configured
+/// radii where set, else derived from the distance range.
+RadiusRanges searchRadii(const DetectorParams& params, const CameraIntrinsics& camera);
+
+class HoughCirclesBaseline
+{
+public:
+  explicit HoughCirclesBaseline(const RadiusRanges& radii);
+
+  /// Grayscale, Gaussian sigma 1.5, then one HoughCircles call per radius range (BGR 8-bit).
+  void detect(const cv::Mat& bgr);
+  const std::vector<cv::Vec3f>& flanges() const
+  {
+    return flanges_;
+  }
+  const std::vector<cv::Vec3f>& holes() const
+  {
+    return holes_;
+  }
+
+private:
+  int flange_min_;
+  int flange_max_;
+  int hole_min_;
+  int hole_max_;
+  cv::Mat gray_;
+  cv::Mat blurred_;
+  std::vector<cv::Vec3f> flanges_;
+  std::vector<cv::Vec3f> holes_;
+};
+
+/// Median time (ms) of the baseline per frame over `frames`.
+double baselineMedianMs(HoughCirclesBaseline& baseline, const std::vector<RenderedFrame>& frames);
+
+// ---------------------------------------------------------------------------------------------
+// The evaluation run and its report.
+
+/// DESIGN.md §7 for one resolution. NaN = not a bar at this resolution (reported only).
+struct QualityBars
+{
+  double flange_found_min = 0.99;
+  double hole_found_min = 0.97;
+  double false_spool_max = 0.01;
+  double wrong_target_max = 0.01;
+  double distance_median_max = 0.01;
+  double distance_p95_max = 0.03;
+  double yaw_median_max_deg = 0.1;
+  double yaw_p95_max_deg = 0.3;
+  double time_median_max_ms = 5.0;
+
+  static QualityBars vga();         ///< 640x480
+  static QualityBars thesisSize();  ///< 160x120: hole 90%, 1 ms; distance and yaw bars are 640x480's
+};
+
+/// One detector configuration at one frame size.
+struct Setup
+{
+  std::string name;  ///< e.g. "seed.yaml @ 160x120"
+  cv::Size size;
+  DetectorParams params;
+  QualityBars bars;
+};
+
+struct EvaluationConfig
+{
+  std::vector<Setup> setups;
+  std::uint64_t seed = 1;
+  int main_count = 400;      ///< main set frames per setup
+  int negative_count = 200;  ///< negatives set frames per setup
+  int pose_repeats = 3;      ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
+};
+
+/// A detector variant (parameter overrides on each setup's configuration) and its metrics.
+struct VariantResult
+{
+  std::string label;
+  std::vector<Metrics> per_setup;
+};
+
+/// One table of the thesis comparison: filters, binarization levels, morphology, CHT/MCHT, lamps.
+struct VariantAnalysis
+{
+  std::string key;  ///< file name stem of its chart
+  std::string title;
+  std::string note;
+  std::vector<VariantResult> rows;
+};
+
+/// Controlled pose: the truth and, per setup, the mean of the correct detections.
+struct PoseMeasurement
+{
+  int frames = 0;
+  int correct = 0;
+  double distance = SpoolDetection::kNaN;        ///< m
+  double yaw = SpoolDetection::kNaN;             ///< rad
+  double lateral_offset = SpoolDetection::kNaN;  ///< m, mean of D * |tan yaw|
+};
+
+struct PosePoint
+{
+  double distance = 0.0;  ///< m, true
+  double yaw = 0.0;       ///< rad, true
+  std::vector<PoseMeasurement> per_setup;
+};
+
+struct SetupResult
+{
+  Metrics metrics;           ///< main + negatives sets, configuration as loaded
+  double baseline_ms = 0.0;  ///< cv::HoughCircles median per frame on the same frames
+  double speedRatio() const
+  {
+    return baseline_ms / metrics.time_ms.median;
+  }
+};
+
+struct EvaluationResult
+{
+  EvaluationConfig config;
+  std::vector<SetupResult> setups;
+  std::vector<VariantAnalysis> analyses;
+  std::vector<PosePoint> distance_sweep;  ///< Fig. 4.16: straight on, 50-110 cm
+  std::vector<PosePoint> yaw_sweep;       ///< Table 4.1: -20..20 deg at 80, 90, 100 cm
+  std::vector<PosePoint> tx_sweep;        ///< Fig. 4.17: -1..1 deg at 50 and 60 cm
+};
+
+EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& progress = {});
+
+/// One row of the headline table: a §7 bar and, per setup, the measured value and verdict.
+struct BarRow
+{
+  std::string bar;
+  struct Cell
+  {
+    std::string limit;     ///< e.g. ">= 99%", "-" when not a bar here
+    std::string measured;  ///< e.g. "99.5% (398/400)"
+    bool applies = false;
+    bool pass = false;
+  };
+  std::vector<Cell> per_setup;
+};
+
+std::vector<BarRow> headlineRows(const EvaluationResult& result);
+
+/// The headline table in Markdown.
+std::string headlineTable(const EvaluationResult& result);
+
+/// True when every bar that applies to setup `index` passes.
+bool barsPass(const EvaluationResult& result, size_t index);
+
+/// Writes `dir`/report.md and its PNG charts (creates `dir`). Throws std::runtime_error.
+void writeReport(const EvaluationResult& result, const std::string& dir);
+
+}  // namespace spool_vision

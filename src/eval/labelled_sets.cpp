@@ -1,0 +1,95 @@
+#include <cmath>
+#include <random>
+#include <string>
+
+#include "spool_vision/evaluation.h"
+
+namespace spool_vision
+{
+namespace
+{
+constexpr double kDeg = M_PI / 180.0;
+
+std::uint64_t frameSeed(std::uint64_t seed, int index)
+{
+  return seed * 1000003ULL + static_cast<std::uint64_t>(index) * 7919ULL + 17ULL;
+}
+
+SceneKind randomNegative(cv::RNG& rng)
+{
+  static const SceneKind kinds[] = {SceneKind::kEmptySlot, SceneKind::kPlate, SceneKind::kTapeRoll, SceneKind::kCan};
+  return kinds[rng.uniform(0, 4)];
+}
+
+// One frame of the main or negatives set: random scene, random pose over the working range.
+void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& scene, CameraPose& pose)
+{
+  const std::uint64_t seed = frameSeed(set_seed, index);
+  // cv::RNG's first draws follow its seed almost linearly, so consecutive frame seeds would put
+  // the poses on a lattice; one Mersenne Twister step scatters them.
+  cv::RNG rng{std::mt19937_64(seed)()};
+  SceneKind kind = SceneKind::kSpool;
+  if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
+    kind = randomNegative(rng);
+  scene = randomScene(kind, seed);
+  pose = bearingPose(rng.uniform(0.5, 1.1), rng.uniform(-20.0, 20.0) * kDeg, rng.uniform(-5.0, 5.0) * kDeg,
+                     rng.uniform(0.05, 0.07), rng.uniform(-2.0, 2.0) * kDeg);
+}
+
+// One frame of an approach: 110 cm to 50 cm, the lateral and heading errors shrink to zero
+// by 80% of the way (about 62 cm), so the last frames inside 60 cm are aligned.
+void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& scene, CameraPose& pose)
+{
+  const std::uint64_t shelf_seed = ~frameSeed(set_seed, 0);  // the shelf shared by all frames
+  cv::RNG rng(shelf_seed);
+  scene = randomScene(SceneKind::kSpool, shelf_seed);
+  const double lateral0 = (rng.uniform(0, 2) ? 1.0 : -1.0) * rng.uniform(0.05, 0.15);
+  const double heading0 = rng.uniform(-3.0, 3.0) * kDeg;
+  const double s = count > 1 ? static_cast<double>(index) / (count - 1) : 1.0;
+  const double left = std::pow(std::max(0.0, 1.0 - s / 0.8), 2.0);
+  scene.seed = frameSeed(set_seed, index);  // fresh sensor noise per frame, same shelf
+  pose.distance = 1.10 - 0.60 * s;
+  pose.lateral = lateral0 * left;
+  pose.yaw = heading0 * left;
+  pose.height = 0.06;
+  pose.pitch = 0.0;
+}
+}  // namespace
+
+CameraPose bearingPose(double distance, double bearing, double heading, double height, double pitch)
+{
+  CameraPose pose;
+  pose.distance = distance;
+  pose.height = height;
+  pose.yaw = heading;
+  pose.pitch = pitch;
+  pose.lateral = -std::sqrt(distance * distance - height * height) * std::sin(bearing + heading);
+  return pose;
+}
+
+void setFrame(FrameSet set, std::uint64_t seed, int index, int count, SceneParams& scene, CameraPose& pose)
+{
+  if (set == FrameSet::kApproach)
+    approachFrame(seed, index, count, scene, pose);
+  else
+    randomFrame(set, seed, index, scene, pose);
+}
+
+std::vector<RenderedFrame> renderSet(const SpoolRenderer& renderer, FrameSet set, std::uint64_t seed, int count,
+                                     const Progress& progress)
+{
+  std::vector<RenderedFrame> frames;
+  frames.reserve(static_cast<size_t>(count));
+  for (int i = 0; i < count; ++i)
+  {
+    SceneParams scene;
+    CameraPose pose;
+    setFrame(set, seed, i, count, scene, pose);
+    frames.push_back(renderer.render(scene, pose));
+    if (progress)
+      progress("render", i + 1, count);
+  }
+  return frames;
+}
+
+}  // namespace spool_vision

@@ -1,0 +1,175 @@
+#include <algorithm>
+#include <cmath>
+
+#include "spool_vision/evaluation.h"
+
+namespace spool_vision
+{
+namespace
+{
+// The renderer's "in view": inside the outer pixel borders.
+bool inView(const CameraIntrinsics& camera, const ProjectedCircle& c)
+{
+  return c.centre_x >= -0.5 && c.centre_x <= camera.width - 0.5 && c.centre_y >= -0.5 &&
+         c.centre_y <= camera.height - 0.5;
+}
+
+bool circleMatches(const ProjectedCircle& truth, const Circle& found, double centre_px, double centre_fraction,
+                   double radius_px, double radius_fraction)
+{
+  const double centre_tol = std::max(centre_px, centre_fraction * truth.r);
+  const double radius_tol = std::max(radius_px, radius_fraction * truth.r);
+  return std::hypot(found.x - truth.x, found.y - truth.y) <= centre_tol && std::abs(found.r - truth.r) <= radius_tol;
+}
+
+// Index of the target in `spools`: centre in view, smallest |yaw|.
+std::optional<size_t> targetIndex(const std::vector<SpoolTruth>& spools, const CameraIntrinsics& camera)
+{
+  std::optional<size_t> target;
+  for (size_t i = 0; i < spools.size(); ++i)
+    if (inView(camera, spools[i].flange) && (!target || std::abs(spools[i].yaw) < std::abs(spools[*target].yaw)))
+      target = i;
+  return target;
+}
+
+bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b)
+{
+  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width && a.height == b.height;
+}
+}  // namespace
+
+std::vector<SpoolTruth> renderedSpools(const GroundTruth& truth)
+{
+  std::vector<SpoolTruth> spools;
+  if (truth.flange)
+    spools.push_back({*truth.flange, truth.distance, truth.yaw, true});
+  for (const NeighbourTruth& n : truth.neighbours)
+    spools.push_back({n.flange, n.distance, n.yaw, false});
+  return spools;
+}
+
+std::optional<SpoolTruth> targetSpool(const GroundTruth& truth)
+{
+  const std::vector<SpoolTruth> spools = renderedSpools(truth);
+  const std::optional<size_t> target = targetIndex(spools, truth.camera);
+  return target ? std::optional<SpoolTruth>(spools[*target]) : std::nullopt;
+}
+
+bool flangeMatches(const ProjectedCircle& truth, const Circle& found)
+{
+  return circleMatches(truth, found, 3.0, 0.1, 0.0, 0.1);
+}
+
+bool holeMatches(const ProjectedCircle& truth, const Circle& found)
+{
+  return circleMatches(truth, found, 2.0, 0.25, 1.0, 0.25);
+}
+
+FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
+{
+  FrameScore s;
+  s.lamps = truth.lamps;
+  s.time_ms = detection.time_ms;
+  s.detected = detection.detected;
+  s.hole_reported = detection.detected && detection.hole_detected;
+
+  const std::vector<SpoolTruth> spools = renderedSpools(truth);
+  const std::optional<size_t> target_index = targetIndex(spools, truth.camera);
+  s.has_target = target_index.has_value();
+  for (size_t i = 0; i < spools.size(); ++i)
+  {
+    if (i == target_index)
+      continue;
+    s.neighbours_in_view |= s.has_target && inView(truth.camera, spools[i].flange);
+    s.on_other_spool |= s.detected && flangeMatches(spools[i].flange, detection.flange);
+  }
+  // The hole is judged where its truth is known: on the slot's spool, or anywhere when there is
+  // no spool to pick (then any hole is false).
+  if (!target_index)
+  {
+    s.hole_judged = true;
+    return s;
+  }
+  const SpoolTruth& target = spools[*target_index];
+  s.hole_judged = target.in_slot;
+
+  s.flange_eligible = target.flange.visible_fraction >= 0.5 && target.distance >= kWorkingDistanceMin &&
+                      target.distance <= kWorkingDistanceMax && std::abs(target.yaw) <= kWorkingBearingMax;
+  s.hole_eligible = s.flange_eligible && target.in_slot && truth.bore_visible && truth.hole_in_view;
+  s.correct = s.detected && flangeMatches(target.flange, detection.flange);
+  s.on_other_spool &= !s.correct;
+  s.hole_correct = s.correct && s.hole_reported && target.in_slot && holeMatches(*truth.hole, detection.hole);
+  if (s.correct)
+  {
+    s.distance_error = (detection.distance - target.distance) / target.distance;
+    s.yaw_error = detection.yaw - target.yaw;
+  }
+  return s;
+}
+
+double percentile(std::vector<double> values, double fraction)
+{
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); }), values.end());
+  if (values.empty())
+    return std::numeric_limits<double>::quiet_NaN();
+  std::sort(values.begin(), values.end());
+  const double pos = std::clamp(fraction, 0.0, 1.0) * static_cast<double>(values.size() - 1);
+  const size_t lo = static_cast<size_t>(std::floor(pos));
+  const size_t hi = std::min(lo + 1, values.size() - 1);
+  return values[lo] + (pos - static_cast<double>(lo)) * (values[hi] - values[lo]);
+}
+
+Spread spreadOf(const std::vector<double>& values)
+{
+  Spread s;
+  s.count = static_cast<int>(std::count_if(values.begin(), values.end(), [](double v) { return std::isfinite(v); }));
+  s.median = percentile(values, 0.5);
+  s.p95 = percentile(values, 0.95);
+  return s;
+}
+
+Metrics summarize(const std::vector<FrameScore>& scores)
+{
+  Metrics m;
+  std::vector<double> distance_errors;
+  std::vector<double> yaw_errors;
+  std::vector<double> times;
+  for (const FrameScore& s : scores)
+  {
+    m.flange_found.add(s.flange_eligible, s.correct);
+    m.hole_found.add(s.hole_eligible, s.hole_correct);
+    m.false_spool.add(!s.has_target, s.detected);
+    m.wrong_target.add(s.has_target && s.neighbours_in_view, s.detected && !s.correct);
+    m.false_hole.add(s.hole_reported && s.hole_judged, !s.hole_correct);
+    if (s.flange_eligible)
+    {
+      m.missed += s.detected ? 0 : 1;
+      m.on_other_spool += s.on_other_spool ? 1 : 0;
+      m.bogus += s.detected && !s.correct && !s.on_other_spool ? 1 : 0;
+      distance_errors.push_back(std::abs(s.distance_error));
+      yaw_errors.push_back(std::abs(s.yaw_error) * 180.0 / M_PI);
+    }
+    times.push_back(s.time_ms);
+  }
+  m.distance_error = spreadOf(distance_errors);
+  m.yaw_error_deg = spreadOf(yaw_errors);
+  m.time_ms = spreadOf(times);
+  return m;
+}
+
+std::vector<FrameScore> evaluate(SpoolDetector& detector, const std::vector<RenderedFrame>& frames)
+{
+  std::vector<FrameScore> scores;
+  scores.reserve(frames.size());
+  for (size_t i = 0; i < frames.size(); ++i)
+  {
+    const GroundTruth& truth = frames[i].truth;
+    // Only on a change: a new camera rebuilds the detector's geometry.
+    if (i == 0 || !sameCamera(truth.camera, frames[i - 1].truth.camera))
+      detector.setCamera(truth.camera);
+    scores.push_back(scoreFrame(truth, detector.detect(frames[i].image, PixelFormat::kBgr8)));
+  }
+  return scores;
+}
+
+}  // namespace spool_vision

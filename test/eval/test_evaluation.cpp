@@ -1,0 +1,458 @@
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "spool_vision/config_io.h"
+#include "spool_vision/evaluation.h"
+
+namespace sv = spool_vision;
+
+namespace
+{
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+const sv::CameraIntrinsics kVga = sv::CameraIntrinsics::thesisDefault(640, 480);
+
+sv::ProjectedCircle circleAt(double x, double y, double r, double visible = 1.0)
+{
+  sv::ProjectedCircle c;
+  c.x = c.centre_x = x;
+  c.y = c.centre_y = y;
+  c.r = c.semi_major = c.semi_minor = c.r_vertical = r;
+  c.visible_fraction = visible;
+  return c;
+}
+
+double bearingOf(double x)
+{
+  return std::atan((x - kVga.cx) / kVga.fx);
+}
+
+// The slot's spool at 80 cm seen at column x, its bore lit and in view.
+sv::GroundTruth slotSpool(double x)
+{
+  sv::GroundTruth t;
+  t.kind = sv::SceneKind::kSpool;
+  t.camera = kVga;
+  t.flange = circleAt(x, 280.0, 175.0);
+  t.hole = circleAt(x, 280.0, 18.0);
+  t.distance = 0.8;
+  t.yaw = bearingOf(x);
+  t.flange_half_visible = t.hole_in_view = t.bore_visible = t.spool_centre_in_view = true;
+  return t;
+}
+
+// A frame with no spool in the slot (a plate, say).
+sv::GroundTruth emptySlot()
+{
+  sv::GroundTruth t;
+  t.kind = sv::SceneKind::kPlate;
+  t.camera = kVga;
+  return t;
+}
+
+void addNeighbour(sv::GroundTruth& t, double x)
+{
+  t.neighbours.push_back({circleAt(x, 280.0, 170.0, 0.6), 0.82, bearingOf(x)});
+}
+
+sv::Circle circleOf(const sv::ProjectedCircle& c, double dx = 0.0, double dr = 0.0)
+{
+  sv::Circle out;
+  out.x = c.x + dx;
+  out.y = c.y;
+  out.r = out.r_vertical = c.r + dr;
+  out.score = 0.9;
+  return out;
+}
+
+sv::SpoolDetection flangeAt(const sv::Circle& flange, double distance = 0.8, double yaw = 0.0)
+{
+  sv::SpoolDetection d;
+  d.detected = true;
+  d.flange = flange;
+  d.distance = distance;
+  d.yaw = yaw;
+  d.time_ms = 1.0;
+  return d;
+}
+
+sv::DetectorParams config(const std::string& name)
+{
+  sv::DetectorParams params;
+  sv::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/" + name, params);
+  return params;
+}
+}  // namespace
+
+TEST(Statistics, PercentilesInterpolateBetweenOrderStatisticsAndSkipNaN)
+{
+  const std::vector<double> v = {5.0, 1.0, kNaN, 3.0, 2.0, std::numeric_limits<double>::infinity(), 4.0};
+  EXPECT_DOUBLE_EQ(sv::percentile(v, 0.5), 3.0);
+  EXPECT_DOUBLE_EQ(sv::percentile(v, 0.95), 4.8);
+  EXPECT_DOUBLE_EQ(sv::percentile(v, 0.0), 1.0);
+  EXPECT_DOUBLE_EQ(sv::percentile(v, 1.0), 5.0);
+  EXPECT_DOUBLE_EQ(sv::percentile({1.0, 2.0}, 0.5), 1.5);
+  EXPECT_TRUE(std::isnan(sv::percentile({}, 0.5)));
+  EXPECT_TRUE(std::isnan(sv::percentile({kNaN, kNaN}, 0.5)));
+
+  const sv::Spread s = sv::spreadOf(v);
+  EXPECT_EQ(s.count, 5);
+  EXPECT_DOUBLE_EQ(s.median, 3.0);
+  EXPECT_DOUBLE_EQ(s.p95, 4.8);
+}
+
+TEST(Statistics, RateCountsOnlyEligibleFrames)
+{
+  sv::Rate r;
+  EXPECT_TRUE(std::isnan(r.value()));
+  r.add(true, true);
+  r.add(true, false);
+  r.add(false, true);
+  EXPECT_EQ(r.frames, 2);
+  EXPECT_EQ(r.hits, 1);
+  EXPECT_DOUBLE_EQ(r.value(), 0.5);
+}
+
+TEST(Scoring, MatchTolerances)
+{
+  const sv::ProjectedCircle small = circleAt(100.0, 100.0, 20.0);
+  EXPECT_TRUE(sv::flangeMatches(small, circleOf(small, 3.0)));  // 3 px floor
+  EXPECT_FALSE(sv::flangeMatches(small, circleOf(small, 3.5)));
+  const sv::ProjectedCircle big = circleAt(300.0, 200.0, 150.0);
+  EXPECT_TRUE(sv::flangeMatches(big, circleOf(big, 14.5)));  // 10% of r
+  EXPECT_FALSE(sv::flangeMatches(big, circleOf(big, 15.5)));
+  EXPECT_TRUE(sv::flangeMatches(big, circleOf(big, 0.0, 14.5)));
+  EXPECT_FALSE(sv::flangeMatches(big, circleOf(big, 0.0, -15.5)));
+
+  const sv::ProjectedCircle hole = circleAt(50.0, 50.0, 4.0);
+  EXPECT_TRUE(sv::holeMatches(hole, circleOf(hole, 2.0, 1.0)));  // 2 px and 1 px floors
+  EXPECT_FALSE(sv::holeMatches(hole, circleOf(hole, 2.5)));
+  EXPECT_FALSE(sv::holeMatches(hole, circleOf(hole, 0.0, 1.2)));
+}
+
+TEST(Scoring, ADetectionOnTheTargetIsCorrectAndMeasured)
+{
+  sv::GroundTruth t = slotSpool(330.0);
+  addNeighbour(t, 330.0 + 380.0);  // centre out of view: not a neighbour "in view"
+  sv::SpoolDetection d = flangeAt(circleOf(*t.flange, 1.0), 0.808, t.yaw + 0.001);
+  d.hole_detected = true;
+  d.hole = circleOf(*t.hole, 0.5);
+
+  const sv::FrameScore s = sv::scoreFrame(t, d);
+  EXPECT_TRUE(s.has_target);
+  EXPECT_TRUE(s.flange_eligible);
+  EXPECT_TRUE(s.hole_eligible);
+  EXPECT_FALSE(s.neighbours_in_view);
+  EXPECT_TRUE(s.correct);
+  EXPECT_FALSE(s.on_other_spool);
+  EXPECT_TRUE(s.hole_correct);
+  EXPECT_NEAR(s.distance_error, 0.01, 1e-12);
+  EXPECT_NEAR(s.yaw_error, 0.001, 1e-12);
+
+  const sv::Metrics m = sv::summarize({s});
+  EXPECT_EQ(m.flange_found.hits, 1);
+  EXPECT_EQ(m.hole_found.hits, 1);
+  EXPECT_EQ(m.false_hole.frames, 1);
+  EXPECT_EQ(m.false_hole.hits, 0);
+  EXPECT_EQ(m.wrong_target.frames, 0);
+  EXPECT_NEAR(m.yaw_error_deg.median, 0.001 * 180.0 / M_PI, 1e-9);
+}
+
+TEST(Scoring, ADetectionOnANeighbourIsAWrongTarget)
+{
+  sv::GroundTruth t = slotSpool(330.0);
+  addNeighbour(t, 600.0);  // in view, farther from the puller column than the slot's spool
+  const sv::FrameScore s = sv::scoreFrame(t, flangeAt(circleOf(t.neighbours[0].flange)));
+  EXPECT_TRUE(s.neighbours_in_view);
+  EXPECT_TRUE(s.detected);
+  EXPECT_FALSE(s.correct);
+  EXPECT_TRUE(s.on_other_spool);
+  EXPECT_TRUE(std::isnan(s.distance_error));
+
+  const sv::Metrics m = sv::summarize({s});
+  EXPECT_EQ(m.wrong_target.frames, 1);
+  EXPECT_EQ(m.wrong_target.hits, 1);
+  EXPECT_EQ(m.flange_found.frames, 1);
+  EXPECT_EQ(m.flange_found.hits, 0);
+  EXPECT_EQ(m.on_other_spool, 1);
+  EXPECT_EQ(m.bogus, 0);
+  EXPECT_EQ(m.distance_error.count, 0);
+}
+
+TEST(Scoring, TheTargetIsTheSpoolNearestThePullerColumn)
+{
+  sv::GroundTruth t = slotSpool(60.0);  // about -18 deg
+  addNeighbour(t, 440.0);               // about +8.6 deg
+  const auto target = sv::targetSpool(t);
+  ASSERT_TRUE(target);
+  EXPECT_FALSE(target->in_slot);
+  EXPECT_DOUBLE_EQ(target->flange.x, 440.0);
+
+  const sv::FrameScore on_neighbour = sv::scoreFrame(t, flangeAt(circleOf(t.neighbours[0].flange), 0.83));
+  EXPECT_TRUE(on_neighbour.correct);
+  EXPECT_NEAR(on_neighbour.distance_error, 0.01 / 0.82, 1e-12);  // against the neighbour's own truth
+  EXPECT_FALSE(on_neighbour.hole_eligible);                      // its bore is not in the ground truth
+  EXPECT_FALSE(on_neighbour.hole_judged);
+
+  const sv::FrameScore on_slot = sv::scoreFrame(t, flangeAt(circleOf(*t.flange)));
+  EXPECT_FALSE(on_slot.correct);
+  EXPECT_TRUE(on_slot.on_other_spool);
+  EXPECT_EQ(sv::summarize({on_slot}).wrong_target.hits, 1);
+}
+
+TEST(Scoring, AFlangeOnNoSpoolIsBogus)
+{
+  sv::GroundTruth t = slotSpool(330.0);
+  addNeighbour(t, 600.0);
+  sv::Circle large;
+  large.x = 320.0;
+  large.y = 300.0;
+  large.r = 260.0;
+  const sv::Metrics m = sv::summarize({sv::scoreFrame(t, flangeAt(large))});
+  EXPECT_EQ(m.bogus, 1);
+  EXPECT_EQ(m.on_other_spool, 0);
+  EXPECT_EQ(m.wrong_target.hits, 1);
+}
+
+TEST(Scoring, WithoutASpoolCentreInViewAnyFlangeIsAFalseSpool)
+{
+  sv::GroundTruth t = emptySlot();
+  addNeighbour(t, 820.0);  // rim partly in view, centre not
+  EXPECT_FALSE(sv::targetSpool(t));
+
+  sv::SpoolDetection on_partial_rim = flangeAt(circleOf(t.neighbours[0].flange));
+  on_partial_rim.hole_detected = true;
+  on_partial_rim.hole = circleOf(circleAt(820.0, 280.0, 17.0));
+  const sv::FrameScore hit = sv::scoreFrame(t, on_partial_rim);
+  const sv::FrameScore quiet = sv::scoreFrame(t, sv::SpoolDetection());
+  EXPECT_FALSE(hit.has_target);
+  EXPECT_FALSE(hit.flange_eligible);
+
+  const sv::Metrics m = sv::summarize({hit, quiet});
+  EXPECT_EQ(m.false_spool.frames, 2);
+  EXPECT_EQ(m.false_spool.hits, 1);
+  EXPECT_EQ(m.false_hole.frames, 1);
+  EXPECT_EQ(m.false_hole.hits, 1);
+  EXPECT_EQ(m.flange_found.frames, 0);
+  EXPECT_EQ(m.wrong_target.frames, 0);
+}
+
+TEST(Scoring, AHoleOffTheBoreIsFalse)
+{
+  const sv::GroundTruth t = slotSpool(330.0);
+  sv::SpoolDetection d = flangeAt(circleOf(*t.flange));
+  d.hole_detected = true;
+  d.hole = circleOf(*t.hole, 6.0);
+  const sv::FrameScore s = sv::scoreFrame(t, d);
+  EXPECT_TRUE(s.correct);
+  EXPECT_FALSE(s.hole_correct);
+  const sv::Metrics m = sv::summarize({s});
+  EXPECT_EQ(m.hole_found.hits, 0);
+  EXPECT_EQ(m.false_hole.hits, 1);
+}
+
+TEST(Scoring, NaNDistancesAreLeftOutOfTheErrorStatistics)
+{
+  const sv::GroundTruth t = slotSpool(330.0);
+  const sv::FrameScore measured = sv::scoreFrame(t, flangeAt(circleOf(*t.flange), 0.82, t.yaw));
+  const sv::FrameScore undefined = sv::scoreFrame(t, flangeAt(circleOf(*t.flange), kNaN, t.yaw + 0.002));
+  EXPECT_TRUE(undefined.correct);
+  EXPECT_TRUE(std::isnan(undefined.distance_error));
+
+  const sv::Metrics m = sv::summarize({measured, undefined});
+  EXPECT_EQ(m.distance_error.count, 1);
+  EXPECT_NEAR(m.distance_error.median, 0.025, 1e-12);
+  EXPECT_EQ(m.yaw_error_deg.count, 2);
+  EXPECT_NEAR(m.yaw_error_deg.median, 0.001 * 180.0 / M_PI, 1e-9);
+}
+
+TEST(Bars, EveryBarThatAppliesMustPass)
+{
+  sv::EvaluationResult r;
+  r.config.setups = {{"thesis", {160, 120}, {}, sv::QualityBars::thesisSize()},
+                     {"vga", {640, 480}, {}, sv::QualityBars::vga()}};
+  sv::SetupResult good;
+  good.metrics.flange_found = {995, 1000};
+  good.metrics.hole_found = {98, 100};
+  good.metrics.false_spool = {0, 100};
+  good.metrics.wrong_target = {1, 100};
+  good.metrics.distance_error = {0.005, 0.02, 100};
+  good.metrics.yaw_error_deg = {0.05, 0.2, 100};
+  good.metrics.time_ms = {0.8, 1.0, 1000};
+  good.baseline_ms = 2.0;
+  r.setups = {good, good};
+  EXPECT_TRUE(sv::barsPass(r, 0));
+  EXPECT_TRUE(sv::barsPass(r, 1));
+  EXPECT_EQ(sv::headlineRows(r).size(), 10u);
+
+  // Distance and yaw bars are 640x480's only.
+  r.setups[0].metrics.distance_error.median = 0.05;
+  r.setups[0].metrics.yaw_error_deg.p95 = 2.0;
+  EXPECT_TRUE(sv::barsPass(r, 0));
+  r.setups[1].metrics.yaw_error_deg.p95 = 0.31;
+  EXPECT_FALSE(sv::barsPass(r, 1));
+  r.setups[1] = good;
+
+  r.setups[0].metrics.hole_found = {91, 100};  // 90% at 160x120, 97% at 640x480
+  r.setups[1].metrics.hole_found = {91, 100};
+  EXPECT_TRUE(sv::barsPass(r, 0));
+  EXPECT_FALSE(sv::barsPass(r, 1));
+  r.setups[1] = good;
+
+  r.setups[1].metrics.wrong_target = {0, 0};  // no frames: not shown to pass
+  EXPECT_FALSE(sv::barsPass(r, 1));
+  r.setups[1] = good;
+
+  r.setups[1].baseline_ms = 0.5;  // slower than cv::HoughCircles
+  EXPECT_FALSE(sv::barsPass(r, 1));
+  r.setups[0].metrics.time_ms.median = 1.2;
+  EXPECT_FALSE(sv::barsPass(r, 0));
+  EXPECT_NE(sv::headlineTable(r).find("**FAIL**"), std::string::npos);
+}
+
+TEST(Baseline, SearchesTheDetectorsRadiusRanges)
+{
+  const sv::RadiusRanges seed = sv::searchRadii(config("seed.yaml"), sv::CameraIntrinsics::thesisDefault(160, 120));
+  EXPECT_DOUBLE_EQ(seed.flange_min, 35.0);
+  EXPECT_DOUBLE_EQ(seed.flange_max, 65.0);
+  EXPECT_DOUBLE_EQ(seed.hole_min, 3.0);
+  EXPECT_DOUBLE_EQ(seed.hole_max, 15.0);
+  // Derived from 0.45-1.2 m with f = 800 px.
+  const sv::RadiusRanges vga = sv::searchRadii(config("default.yaml"), kVga);
+  EXPECT_NEAR(vga.flange_min, 800.0 * 0.175 / 1.2, 1e-9);
+  EXPECT_NEAR(vga.flange_max, 800.0 * 0.175 / 0.45, 1e-9);
+  EXPECT_NEAR(vga.hole_min, 800.0 * 0.018 / 1.2, 1e-9);
+  EXPECT_NEAR(vga.hole_max, 800.0 * 0.018 / 0.45, 1e-9);
+
+  const sv::SpoolRenderer renderer(kVga);
+  sv::SceneParams scene;
+  const sv::RenderedFrame frame = renderer.render(scene, sv::bearingPose(0.8, 0.0, 0.0, 0.06, 0.0));
+  sv::HoughCirclesBaseline baseline(vga);
+  baseline.detect(frame.image);
+  ASSERT_FALSE(baseline.flanges().empty());
+  bool on_flange = false;
+  for (const cv::Vec3f& c : baseline.flanges())
+    on_flange |= sv::flangeMatches(*frame.truth.flange, sv::Circle{c[0], c[1], c[2], c[2], 1.0, 1.0});
+  EXPECT_TRUE(on_flange);
+}
+
+TEST(LabelledSets, AreAFunctionOfTheSeedAndCoverTheWorkingRange)
+{
+  sv::SceneParams a;
+  sv::SceneParams b;
+  sv::CameraPose pa;
+  sv::CameraPose pb;
+  sv::setFrame(sv::FrameSet::kMain, 5, 17, 200, a, pa);
+  sv::setFrame(sv::FrameSet::kMain, 5, 17, 200, b, pb);
+  EXPECT_EQ(a.seed, b.seed);
+  EXPECT_EQ(pa.distance, pb.distance);
+  EXPECT_EQ(pa.lateral, pb.lateral);
+
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(160, 120));
+  int negatives = 0;
+  int near = 0;
+  int far = 0;
+  int left = 0;
+  int right = 0;
+  for (int i = 0; i < 200; ++i)
+  {
+    sv::SceneParams scene;
+    sv::CameraPose pose;
+    sv::setFrame(sv::FrameSet::kMain, 1, i, 200, scene, pose);
+    negatives += scene.kind != sv::SceneKind::kSpool ? 1 : 0;
+    EXPECT_GE(pose.distance, 0.5);
+    EXPECT_LE(pose.distance, 1.1);
+    near += pose.distance < 0.6 ? 1 : 0;
+    far += pose.distance > 1.0 ? 1 : 0;
+    // The slot's bearing (negatives have none).
+    const double bearing = renderer.groundTruth(scene, pose).yaw;
+    left += bearing < -10.0 * M_PI / 180.0 ? 1 : 0;
+    right += bearing > 10.0 * M_PI / 180.0 ? 1 : 0;
+
+    sv::setFrame(sv::FrameSet::kNegatives, 1, i, 200, scene, pose);
+    EXPECT_NE(scene.kind, sv::SceneKind::kSpool);
+  }
+  EXPECT_GT(negatives, 10);  // about 15%
+  EXPECT_LT(negatives, 50);
+  // Uniform draws: about a sixth of the frames in each distance end, a quarter beyond +-10 deg.
+  EXPECT_GT(near, 15);
+  EXPECT_GT(far, 15);
+  EXPECT_GT(left, 20);
+  EXPECT_GT(right, 20);
+}
+
+// Loose bars for small samples: they catch a broken evaluation or a collapsed detector, not
+// the §7 bars (those are the report's; see scripts/eval.sh).
+TEST(Evaluation, SmallRenderedSetsMeetLooseBars)
+{
+  const sv::SpoolRenderer small(sv::CameraIntrinsics::thesisDefault(160, 120));
+  sv::SpoolDetector thesis(config("seed.yaml"));
+  const sv::Metrics m160 = sv::summarize(sv::evaluate(thesis, sv::renderSet(small, sv::FrameSet::kMain, 1, 30)));
+  EXPECT_GE(m160.flange_found.frames, 20);
+  EXPECT_GE(m160.flange_found.value(), 0.5);
+  EXPECT_LE(m160.distance_error.median, 0.05);
+  EXPECT_LE(m160.time_ms.median, 50.0);  // a sanity check of the timing field, not a speed bar
+
+  const sv::SpoolRenderer vga(kVga);
+  sv::SpoolDetector tuned(config("default.yaml"));
+  const sv::Metrics m640 = sv::summarize(sv::evaluate(tuned, sv::renderSet(vga, sv::FrameSet::kMain, 1, 24)));
+  EXPECT_GE(m640.flange_found.frames, 15);
+  EXPECT_GE(m640.flange_found.value(), 0.7);
+  EXPECT_GE(m640.hole_found.value(), 0.7);
+  EXPECT_LE(m640.false_hole.value(), 0.1);
+  EXPECT_LE(m640.distance_error.median, 0.01);
+  EXPECT_LE(m640.yaw_error_deg.median, 0.1);
+}
+
+TEST(Evaluation, TheReportHoldsEveryTableAndChart)
+{
+  sv::EvaluationConfig small;
+  small.setups = {{"seed.yaml @ 160x120", {160, 120}, config("seed.yaml"), sv::QualityBars::thesisSize()}};
+  small.main_count = 12;
+  small.negative_count = 6;
+  small.pose_repeats = 1;
+  int progress_calls = 0;
+  const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
+  EXPECT_GT(progress_calls, 18);
+  ASSERT_EQ(r.setups.size(), 1u);
+  EXPECT_EQ(r.setups[0].metrics.time_ms.count, 18);
+  EXPECT_GT(r.setups[0].baseline_ms, 0.0);
+  ASSERT_EQ(r.analyses.size(), 5u);  // filters, binarization, morphology, CHT/MCHT, lamps
+  for (const sv::VariantAnalysis& a : r.analyses)
+    for (const sv::VariantResult& row : a.rows)
+      EXPECT_EQ(row.per_setup.size(), 1u) << a.key << " " << row.label;
+  EXPECT_EQ(r.distance_sweep.size(), 7u);
+  EXPECT_EQ(r.yaw_sweep.size(), 27u);
+  EXPECT_EQ(r.tx_sweep.size(), 18u);
+  EXPECT_NEAR(r.yaw_sweep.front().yaw, -20.0 * M_PI / 180.0, 1e-3);
+  EXPECT_NEAR(r.distance_sweep.back().distance, 1.1, 1e-9);
+
+  // The variant that is the configuration itself gives the configuration's numbers.
+  const sv::Metrics& as_loaded = r.setups[0].metrics;
+  const sv::Metrics& mcht = r.analyses[3].rows[0].per_setup[0];
+  EXPECT_EQ(mcht.flange_found.hits, as_loaded.flange_found.hits);
+  EXPECT_EQ(mcht.false_spool.hits, as_loaded.false_spool.hits);
+
+  const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "spool_eval_report";
+  std::filesystem::remove_all(dir);
+  sv::writeReport(r, dir.string());
+  std::ifstream in(dir / "report.md");
+  std::stringstream md;
+  md << in.rdbuf();
+  for (const char* heading : {"## Headline", "### Filter", "### Binarization", "### Morphology", "### CHT vs MCHT",
+                              "### Lamp", "### Distance", "### Yaw", "### tx_r"})
+    EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
+  for (const char* png : {"filters", "binarization", "morphology", "cht_mcht", "lamps", "distance", "yaw", "tx_r"})
+  {
+    const cv::Mat chart = cv::imread((dir / (std::string(png) + ".png")).string());
+    EXPECT_FALSE(chart.empty()) << png;
+    EXPECT_NE(md.str().find(std::string("(") + png + ".png)"), std::string::npos) << png;
+  }
+}
