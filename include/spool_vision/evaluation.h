@@ -45,7 +45,8 @@ std::vector<RenderedFrame> renderSet(const SpoolRenderer& renderer, FrameSet set
 
 // ---------------------------------------------------------------------------------------------
 // Scoring. The target is the spool in front of the robot: among the spools whose flange centre
-// is in view (the slot's spool and its neighbours), the one with the smallest |yaw|.
+// is in view (the slot's spool and its neighbours), the one with the smallest |yaw|; a spool
+// within 1 degree of that |yaw| is tied with it and a detection on it is judged against it.
 
 /// A spool as the scorer sees it.
 struct SpoolTruth

@@ -304,11 +304,14 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   double semi_y = circle.r;
   double r_fit = circle.r;
   int count = 0;
-  for (int iteration = 0; iteration < 4; ++iteration)
+  // Four fitting passes, then one that only counts the support of the final model: a fit to a
+  // short arc can move far, and the score must describe the circle returned, not the last input.
+  constexpr int kFits = 4;
+  for (int iteration = 0; iteration <= kFits; ++iteration)
   {
     // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught
     // whole; then it narrows onto the fitted model.
-    static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025};
+    static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
     const double band = std::max(1.5, kBands[iteration] * r_fit);
     const double mean_r = std::sqrt(semi_x * semi_y);
     const double scale = 1.0 / mean_r;
@@ -349,6 +352,8 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
       octants |= 1u << ((v < 0.0 ? 4u : 0u) | (u < 0.0 ? 2u : 0u) | (std::abs(u) < std::abs(v) ? 1u : 0u));
       ++count;
     }
+    if (iteration == kFits)
+      break;
     if (count < 8)
       return false;
 

@@ -32,6 +32,25 @@ std::optional<size_t> targetIndex(const std::vector<SpoolTruth>& spools, const C
   return target;
 }
 
+// Two spools this nearly equally far off the puller column are both "in front": the robot may
+// take either, so a detection on the other one is not a wrong target.
+constexpr double kTieMargin = 1.0 * M_PI / 180.0;
+
+// The spool the detection is judged against: the target, or a spool tied with it that the
+// detection lies on.
+size_t judgedIndex(const std::vector<SpoolTruth>& spools, size_t target, const CameraIntrinsics& camera,
+                   const SpoolDetection& detection)
+{
+  if (!detection.detected || flangeMatches(spools[target].flange, detection.flange))
+    return target;
+  for (size_t i = 0; i < spools.size(); ++i)
+    if (i != target && inView(camera, spools[i].flange) &&
+        std::abs(std::abs(spools[i].yaw) - std::abs(spools[target].yaw)) <= kTieMargin &&
+        flangeMatches(spools[i].flange, detection.flange))
+      return i;
+  return target;
+}
+
 bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b)
 {
   return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width && a.height == b.height;
@@ -76,9 +95,11 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
   const std::vector<SpoolTruth> spools = renderedSpools(truth);
   const std::optional<size_t> target_index = targetIndex(spools, truth.camera);
   s.has_target = target_index.has_value();
+  const std::optional<size_t> judged_index =
+      target_index ? std::optional<size_t>(judgedIndex(spools, *target_index, truth.camera, detection)) : std::nullopt;
   for (size_t i = 0; i < spools.size(); ++i)
   {
-    if (i == target_index)
+    if (i == target_index || i == judged_index)
       continue;
     s.neighbours_in_view |= s.has_target && inView(truth.camera, spools[i].flange);
     s.on_other_spool |= s.detected && flangeMatches(spools[i].flange, detection.flange);
@@ -96,13 +117,14 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
   s.flange_eligible = target.flange.visible_fraction >= 0.5 && target.distance >= kWorkingDistanceMin &&
                       target.distance <= kWorkingDistanceMax && std::abs(target.yaw) <= kWorkingBearingMax;
   s.hole_eligible = s.flange_eligible && target.in_slot && truth.bore_visible && truth.hole_in_view;
-  s.correct = s.detected && flangeMatches(target.flange, detection.flange);
+  const SpoolTruth& judged = spools[*judged_index];
+  s.correct = s.detected && flangeMatches(judged.flange, detection.flange);
   s.on_other_spool &= !s.correct;
-  s.hole_correct = s.correct && s.hole_reported && target.in_slot && holeMatches(*truth.hole, detection.hole);
+  s.hole_correct = s.correct && s.hole_reported && judged.in_slot && holeMatches(*truth.hole, detection.hole);
   if (s.correct)
   {
-    s.distance_error = (detection.distance - target.distance) / target.distance;
-    s.yaw_error = detection.yaw - target.yaw;
+    s.distance_error = (detection.distance - judged.distance) / judged.distance;
+    s.yaw_error = detection.yaw - judged.yaw;
   }
   return s;
 }

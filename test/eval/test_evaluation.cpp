@@ -207,6 +207,23 @@ TEST(Scoring, TheTargetIsTheSpoolNearestThePullerColumn)
   EXPECT_EQ(sv::summarize({on_slot}).wrong_target.hits, 1);
 }
 
+TEST(Scoring, TwoSpoolsWithinOneDegreeOfTheSameBearingAreBothTheTarget)
+{
+  sv::GroundTruth t = slotSpool(319.5 + 120.0);  // +8.5 deg
+  addNeighbour(t, 319.5 - 119.0);                // -8.5 deg, nearer by 0.07 deg: the target
+  ASSERT_FALSE(sv::targetSpool(t)->in_slot);
+  const sv::FrameScore on_slot = sv::scoreFrame(t, flangeAt(circleOf(*t.flange), 0.81));
+  EXPECT_TRUE(on_slot.correct);
+  EXPECT_FALSE(on_slot.on_other_spool);
+  EXPECT_NEAR(on_slot.distance_error, 0.01 / 0.8, 1e-12);  // against the spool it lies on
+
+  t.neighbours.clear();
+  addNeighbour(t, 319.5 - 100.0);  // -7.1 deg: 1.4 deg nearer, no longer a tie
+  const sv::FrameScore not_tied = sv::scoreFrame(t, flangeAt(circleOf(*t.flange)));
+  EXPECT_FALSE(not_tied.correct);
+  EXPECT_TRUE(not_tied.on_other_spool);
+}
+
 TEST(Scoring, AFlangeOnNoSpoolIsBogus)
 {
   sv::GroundTruth t = slotSpool(330.0);
