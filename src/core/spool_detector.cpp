@@ -133,8 +133,13 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, 
     const Circle& flange = flanges_[i];
     const cv::Size2d tol = matcher_.centreTolerance(flange);
     HoughSearch search = hole_search;
+    // The hole centre must be in the frame: a spool whose axis is out of view is not in front
+    // of the robot, however much of its flange shows.
     search.center_window =
-        cv::Rect2d(flange.x - tol.width, flange.y - tol.height, 2.0 * tol.width + 1e-9, 2.0 * tol.height + 1e-9);
+        cv::Rect2d(flange.x - tol.width, flange.y - tol.height, 2.0 * tol.width + 1e-9, 2.0 * tol.height + 1e-9) &
+        cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
+    if (search.center_window.empty())
+      continue;
     const double expected = flange.r_vertical * ratio;
     const double spread = params_.matcher.hole_ratio_tolerance * expected;
     search.r_min = std::max({search.r_min, expected - spread, 1.5});
