@@ -101,8 +101,18 @@ private:
 };
 }  // namespace
 
-BENCHMARK(spoolDetector)->Name("SpoolDetector")->Args({160, 120})->Args({640, 480})->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(houghCircles)->Name("HoughCircles")->Args({160, 120})->Args({640, 480})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(spoolDetector)
+    ->Name("SpoolDetector")
+    ->Args({160, 120})
+    ->Args({640, 480})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK(houghCircles)
+    ->Name("HoughCircles")
+    ->Args({160, 120})
+    ->Args({640, 480})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 int main(int argc, char** argv)
 {

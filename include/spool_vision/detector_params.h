@@ -60,29 +60,29 @@ enum class ReferenceMode
 struct PreprocessParams
 {
   FilterType filter = FilterType::kGaussian;
-  double filter_sigma = 1.5;   ///< px, Gaussian sigma (also the blur of unsharp masking)
-  int filter_kernel = 3;       ///< px, odd aperture of median / average
-  double unsharp_amount = 0.8; ///< gain of the unsharp mask
+  double filter_sigma = 1.5;    ///< px, Gaussian sigma (also the blur of unsharp masking)
+  int filter_kernel = 3;        ///< px, odd aperture of median / average
+  double unsharp_amount = 0.8;  ///< gain of the unsharp mask
   BinarizeType binarize = BinarizeType::kNone;
-  double binarize_threshold = 0.35; ///< fraction of full scale (thesis: 0.35)
+  double binarize_threshold = 0.35;  ///< fraction of full scale (thesis: 0.35)
   MorphologyType morphology = MorphologyType::kNone;
-  int morphology_radius = 2;        ///< px, disk structuring element
-  int min_component_area = 0;       ///< px, area opening of the binary image (0 = off)
+  int morphology_radius = 2;   ///< px, disk structuring element
+  int min_component_area = 0;  ///< px, area opening of the binary image (0 = off)
 };
 
 /// Hough stage (thesis §3.3.4, Rule 1). Radii of 0 are derived from the distance range.
 struct HoughParams
 {
-  double edge_threshold = 0.06;  ///< minimum gradient magnitude, fraction of full scale
+  double edge_threshold = 0.06;       ///< minimum gradient magnitude, fraction of full scale
   double hole_edge_threshold = 0.02;  ///< the same inside the hole window (the bore rim is faint)
-  double sensitivity = 0.55;       ///< MATLAB-style: a flange needs (1 - sensitivity) of its rim
-  double hole_sensitivity = 0.8;   ///< the same for the hole (a partly lit bore shows part of its rim)
+  double sensitivity = 0.55;          ///< MATLAB-style: a flange needs (1 - sensitivity) of its rim
+  double hole_sensitivity = 0.8;      ///< the same for the hole (a partly lit bore shows part of its rim)
   Polarity flange_polarity = Polarity::kDark;
   Polarity hole_polarity = Polarity::kBright;
-  double flange_radius_min = 0.0;  ///< px, 0 = from distance_max
-  double flange_radius_max = 0.0;  ///< px, 0 = from distance_min
-  double hole_radius_min = 0.0;    ///< px, 0 = from distance_max
-  double hole_radius_max = 0.0;    ///< px, 0 = from distance_min
+  double flange_radius_min = 0.0;     ///< px, 0 = from distance_max
+  double flange_radius_max = 0.0;     ///< px, 0 = from distance_min
+  double hole_radius_min = 0.0;       ///< px, 0 = from distance_max
+  double hole_radius_max = 0.0;       ///< px, 0 = from distance_min
   double min_visible_fraction = 0.3;  ///< ignore circles with less of their rim in the frame
   int max_candidates = 6;             ///< flange candidates kept per frame
 };
@@ -101,23 +101,23 @@ struct MatcherParams
 /// Spool, camera and alignment geometry (thesis §3.4).
 struct GeometryParams
 {
-  double flange_diameter = 0.35;    ///< m
-  double hole_diameter = 0.036;     ///< m
-  double puller_diameter = 0.031;   ///< m
-  double distance_min = 0.45;       ///< m, nearest working distance (sets the largest radius)
-  double distance_max = 1.2;        ///< m, farthest working distance (sets the smallest radius)
+  double flange_diameter = 0.35;         ///< m
+  double hole_diameter = 0.036;          ///< m
+  double puller_diameter = 0.031;        ///< m
+  double distance_min = 0.45;            ///< m, nearest working distance (sets the largest radius)
+  double distance_max = 1.2;             ///< m, farthest working distance (sets the smallest radius)
   double fallback_focal_length = 200.0;  ///< px at 120 image rows, used without camera info
   YawMode yaw_mode = YawMode::kPinhole;
   double field_of_view = 1.0471975511965976;  ///< rad, diagonal FOV for linear_fov yaw (60 deg)
   ReferenceMode reference_mode = ReferenceMode::kPuller;
-  double reference_x = 80.0;        ///< px, fixed reference (thesis: 80 at 160x120)
-  double reference_y = 50.0;        ///< px, fixed reference (thesis: 50 at 160x120)
-  double puller_offset_x = 0.0;     ///< m, puller axis from the camera, camera frame x (right)
-  double puller_offset_y = 0.06;    ///< m, puller axis from the camera, camera frame y (down)
-  double overlap_tolerance = 3.0;   ///< px, Rule 3 window around the reference point
+  double reference_x = 80.0;                      ///< px, fixed reference (thesis: 80 at 160x120)
+  double reference_y = 50.0;                      ///< px, fixed reference (thesis: 50 at 160x120)
+  double puller_offset_x = 0.0;                   ///< m, puller axis from the camera, camera frame x (right)
+  double puller_offset_y = 0.06;                  ///< m, puller axis from the camera, camera frame y (down)
+  double overlap_tolerance = 3.0;                 ///< px, Rule 3 window around the reference point
   double aligned_max_yaw = 0.004363323129985824;  ///< rad (0.25 deg)
-  double aligned_distance_min = 0.5;  ///< m
-  double aligned_distance_max = 0.6;  ///< m
+  double aligned_distance_min = 0.5;              ///< m
+  double aligned_distance_max = 0.6;              ///< m
 };
 
 struct DetectorParams
@@ -136,7 +136,10 @@ public:
     : std::runtime_error("parameter '" + key + "': " + what), key_(key)
   {
   }
-  const std::string& key() const { return key_; }
+  const std::string& key() const
+  {
+    return key_;
+  }
 
 private:
   std::string key_;

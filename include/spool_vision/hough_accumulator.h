@@ -41,8 +41,8 @@ struct HoughSearch
   double r_min = 0.0;  ///< px
   double r_max = 0.0;  ///< px
   Polarity polarity = Polarity::kDark;
-  double min_score = 0.2;              ///< required supported fraction of the in-frame rim
-  double min_visible_fraction = 0.3;   ///< required fraction of the rim inside the image
+  double min_score = 0.2;             ///< required supported fraction of the in-frame rim
+  double min_visible_fraction = 0.3;  ///< required fraction of the rim inside the image
   int max_circles = 4;
   /// Centres are only accepted inside this rectangle (px); empty = anywhere, even off-frame
   /// within r_max of the image, which is how arcs cut by the border are found.
@@ -61,8 +61,14 @@ public:
               std::vector<Circle>& circles);
 
   /// The raw vote image of the last call (CV_32F, one cell per `cellSize()` px), for debugging.
-  const cv::Mat& votes() const { return votes_; }
-  double cellSize() const { return cell_; }
+  const cv::Mat& votes() const
+  {
+    return votes_;
+  }
+  double cellSize() const
+  {
+    return cell_;
+  }
 
 private:
   struct Peak
@@ -73,10 +79,9 @@ private:
   };
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
   void findPeaks(const HoughSearch& search, int max_peaks);
-  bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                     const HoughSearch& search, const Peak& peak, Circle& circle);
-  bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-              Circle& circle);
+  bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                     const Peak& peak, Circle& circle);
+  bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
 
   cv::Mat votes_;
   cv::Mat smoothed_;

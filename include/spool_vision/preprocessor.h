@@ -18,7 +18,10 @@ public:
   explicit Preprocessor(const PreprocessParams& params = PreprocessParams());
 
   void setParams(const PreprocessParams& params);
-  const PreprocessParams& params() const { return params_; }
+  const PreprocessParams& params() const
+  {
+    return params_;
+  }
 
   /// Runs every stage. `out` is CV_8UC1 of the input's size. Throws std::invalid_argument
   /// when the matrix type does not fit `format` or the image is empty.

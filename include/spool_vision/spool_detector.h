@@ -23,29 +23,47 @@ public:
 
   /// Replaces the parameters (validated; throws ParamError and keeps the old ones on error).
   void setParams(const DetectorParams& params);
-  const DetectorParams& params() const { return params_; }
+  const DetectorParams& params() const
+  {
+    return params_;
+  }
 
   /// Camera intrinsics for frames of the matching size. Without them (or for another size) the
   /// thesis camera scaled to the frame is used; usingFallbackCamera() tells which applied last.
   void setCamera(const CameraIntrinsics& camera);
   void clearCamera();
-  bool usingFallbackCamera() const { return using_fallback_; }
+  bool usingFallbackCamera() const
+  {
+    return using_fallback_;
+  }
 
   /// Processes one frame. Throws std::invalid_argument on an empty, too small or mistyped
   /// image. Steady state (same size and format) does not allocate.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format);
 
   /// Intermediate results of the last frame, for overlays and debugging.
-  const cv::Mat& preprocessed() const { return preprocessed_; }
-  const std::vector<Circle>& flangeCandidates() const { return flanges_; }
-  const std::vector<Circle>& holeCandidates() const { return holes_; }
+  const cv::Mat& preprocessed() const
+  {
+    return preprocessed_;
+  }
+  const std::vector<Circle>& flangeCandidates() const
+  {
+    return flanges_;
+  }
+  const std::vector<Circle>& holeCandidates() const
+  {
+    return holes_;
+  }
 
   /// The smallest frame the detector accepts (each side, px).
   static constexpr int kMinImageSide = 32;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
-  double holeToFlangeRatio() const { return params_.geometry.hole_diameter / params_.geometry.flange_diameter; }
+  double holeToFlangeRatio() const
+  {
+    return params_.geometry.hole_diameter / params_.geometry.flange_diameter;
+  }
   /// Picks the target among the flange candidates and finds its hole (thesis Rule 2).
   void selectTarget(const cv::Point2d& reference, double hole_min, double hole_max, SpoolDetection& result);
 

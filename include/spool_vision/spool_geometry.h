@@ -15,7 +15,10 @@ class SpoolGeometry
 public:
   SpoolGeometry(const GeometryParams& params, const CameraIntrinsics& camera);
 
-  const CameraIntrinsics& camera() const { return camera_; }
+  const CameraIntrinsics& camera() const
+  {
+    return camera_;
+  }
 
   /// Range (m) from the optical centre to a flange seen with vertical semi-axis `r_vertical`
   /// (px) centred at (u, v): Eq. 3.2 with the calibrated focal length, corrected for the ray
@@ -37,8 +40,7 @@ public:
   double nominalDistance() const;
 
   /// Radius ranges (px) of flange and hole implied by the distance range and focal length.
-  void radiusRanges(double& flange_min, double& flange_max, double& hole_min,
-                    double& hole_max) const;
+  void radiusRanges(double& flange_min, double& flange_max, double& hole_min, double& hole_max) const;
 
   /// t_f = (hole - puller) / 2 in metres (0.25 cm for the thesis spool).
   double tolerance() const;

@@ -40,7 +40,10 @@ struct CameraIntrinsics
   int width = 0;
   int height = 0;
 
-  bool valid() const { return fx > 0.0 && fy > 0.0 && width > 0 && height > 0; }
+  bool valid() const
+  {
+    return fx > 0.0 && fy > 0.0 && width > 0 && height > 0;
+  }
 
   /// The thesis camera (C270: f = 200 px at 120 rows) scaled to an image of the given size,
   /// principal point at the image centre. `focal_at_120_rows` lets a config override 200 px.
@@ -91,19 +94,19 @@ struct SpoolDetection
 {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-  bool detected = false;       ///< flange found
-  bool hole_detected = false;  ///< a hole that passed the matcher
-  bool overlapped = false;     ///< flange and hole centres on the reference point (Rule 3)
-  bool aligned = false;        ///< safe to insert: overlapped, yaw and lateral error small, in window
+  bool detected = false;         ///< flange found
+  bool hole_detected = false;    ///< a hole that passed the matcher
+  bool overlapped = false;       ///< flange and hole centres on the reference point (Rule 3)
+  bool aligned = false;          ///< safe to insert: overlapped, yaw and lateral error small, in window
   double distance = kNaN;        ///< m, range from the optical centre to the flange centre
   double yaw = kNaN;             ///< rad, positive when the spool appears right of the reference
   double lateral_offset = kNaN;  ///< m, distance * tan(yaw)
-  double tolerance = 0.0;      ///< m, t_f = (hole - puller) / 2
-  double confidence = 0.0;     ///< 0..1
+  double tolerance = 0.0;        ///< m, t_f = (hole - puller) / 2
+  double confidence = 0.0;       ///< 0..1
   Circle flange;
   Circle hole;
-  cv::Point2d reference;       ///< px, where the puller axis appears
-  double time_ms = 0.0;        ///< detector processing time for this frame
+  cv::Point2d reference;  ///< px, where the puller axis appears
+  double time_ms = 0.0;   ///< detector processing time for this frame
 };
 
 }  // namespace spool_vision

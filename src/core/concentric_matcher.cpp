@@ -29,8 +29,7 @@ bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const
   return std::abs(hole.r - expected) <= params_.hole_ratio_tolerance * expected;
 }
 
-std::optional<Circle> ConcentricMatcher::matchHole(const Circle& flange,
-                                                   const std::vector<Circle>& holes) const
+std::optional<Circle> ConcentricMatcher::matchHole(const Circle& flange, const std::vector<Circle>& holes) const
 {
   std::optional<Circle> best;
   double best_cost = std::numeric_limits<double>::infinity();
@@ -39,8 +38,8 @@ std::optional<Circle> ConcentricMatcher::matchHole(const Circle& flange,
     if (!accepts(flange, hole))
       continue;
     // MCHT trusts the concentric geometry; plain CHT (the thesis baseline) takes the strongest.
-    const double cost = params_.mode == MatchMode::kMcht ? std::hypot(hole.x - flange.x, hole.y - flange.y)
-                                                         : -hole.score;
+    const double cost =
+        params_.mode == MatchMode::kMcht ? std::hypot(hole.x - flange.x, hole.y - flange.y) : -hole.score;
     if (cost < best_cost)
     {
       best_cost = cost;
@@ -58,9 +57,8 @@ void ConcentricMatcher::orderByReference(const std::vector<Circle>& flanges, con
     order.push_back(i);
   // Distance weighted by support: arcs of several objects can fake a weak circle right in the
   // middle of the frame, and a candidate half as well supported must be twice as close to win.
-  auto cost = [&](std::size_t i) {
-    return std::hypot(flanges[i].x - reference.x, flanges[i].y - reference.y) / std::max(flanges[i].score, 1e-3);
-  };
+  auto cost = [&](std::size_t i)
+  { return std::hypot(flanges[i].x - reference.x, flanges[i].y - reference.y) / std::max(flanges[i].score, 1e-3); };
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost(a) < cost(b); });
 }
 

@@ -32,7 +32,8 @@ ParamSpec number(const std::string& key, Member member, double lo, double hi, co
                    unit,
                    doc,
                    [member](const DetectorParams& p) -> ParamValue { return member(p); },
-                   [member](DetectorParams& p, const ParamValue& v) {
+                   [member](DetectorParams& p, const ParamValue& v)
+                   {
                      if constexpr (std::is_same_v<T, int>)
                        member(p) = std::get<int>(v);
                      else
@@ -41,8 +42,7 @@ ParamSpec number(const std::string& key, Member member, double lo, double hi, co
 }
 
 template <typename Enum, typename Member>
-ParamSpec choice(const std::string& key, Member member, std::vector<std::string> words,
-                 const std::string& doc)
+ParamSpec choice(const std::string& key, Member member, std::vector<std::string> words, const std::string& doc)
 {
   auto names = words;
   return ParamSpec{key,
@@ -52,10 +52,10 @@ ParamSpec choice(const std::string& key, Member member, std::vector<std::string>
                    std::move(words),
                    "",
                    doc,
-                   [member, names](const DetectorParams& p) -> ParamValue {
-                     return names.at(static_cast<size_t>(member(p)));
-                   },
-                   [member, names](DetectorParams& p, const ParamValue& v) {
+                   [member, names](const DetectorParams& p) -> ParamValue
+                   { return names.at(static_cast<size_t>(member(p))); },
+                   [member, names](DetectorParams& p, const ParamValue& v)
+                   {
                      const auto& word = std::get<std::string>(v);
                      for (size_t i = 0; i < names.size(); ++i)
                        if (names[i] == word)
@@ -63,28 +63,29 @@ ParamSpec choice(const std::string& key, Member member, std::vector<std::string>
                    }};
 }
 
-#define FIELD(path) [](auto& p) -> auto& { return p.path; }
+#define FIELD(path)    \
+  [](auto& p) -> auto& \
+  {                    \
+    return p.path;     \
+  }
 
 std::vector<ParamSpec> buildSpecs()
 {
   const std::vector<std::string> polarity(std::begin(kPolarities), std::end(kPolarities));
   return {
       // Pre-processing (thesis §3.3.2-3.3.3)
-      choice<FilterType>("filter", FIELD(preprocess.filter),
-                         {"gaussian", "median", "average", "unsharp", "none"},
+      choice<FilterType>("filter", FIELD(preprocess.filter), {"gaussian", "median", "average", "unsharp", "none"},
                          "noise filter before the edge stage"),
       number("filter_sigma", FIELD(preprocess.filter_sigma), 0.3, 20.0, "px",
              "Gaussian sigma (gaussian; also the blur of unsharp)"),
       number("filter_kernel", FIELD(preprocess.filter_kernel), 1, 31, "px",
              "odd aperture of median and average filters"),
-      number("unsharp_amount", FIELD(preprocess.unsharp_amount), 0.0, 5.0, "",
-             "gain of the unsharp mask"),
+      number("unsharp_amount", FIELD(preprocess.unsharp_amount), 0.0, 5.0, "", "gain of the unsharp mask"),
       choice<BinarizeType>("binarize", FIELD(preprocess.binarize), {"fixed", "otsu", "none"},
                            "binarization before the Hough stage (thesis: fixed)"),
-      number("binarize_threshold", FIELD(preprocess.binarize_threshold), 0.0, 1.0,
-             "fraction of full scale", "fixed binarization level (thesis: 0.35)"),
-      choice<MorphologyType>("morphology", FIELD(preprocess.morphology),
-                             {"open", "dilate", "erode", "none"},
+      number("binarize_threshold", FIELD(preprocess.binarize_threshold), 0.0, 1.0, "fraction of full scale",
+             "fixed binarization level (thesis: 0.35)"),
+      choice<MorphologyType>("morphology", FIELD(preprocess.morphology), {"open", "dilate", "erode", "none"},
                              "morphology on the binary image (thesis: open)"),
       number("morphology_radius", FIELD(preprocess.morphology_radius), 0, 15, "px",
              "radius of the disk structuring element"),
@@ -113,8 +114,7 @@ std::vector<ParamSpec> buildSpecs()
              "largest hole radius (0 = from distance_min and the focal length)"),
       number("min_visible_fraction", FIELD(hough.min_visible_fraction), 0.05, 1.0, "",
              "ignore circles with less of their rim inside the image"),
-      number("max_candidates", FIELD(hough.max_candidates), 1, 64, "",
-             "flange candidates examined per frame"),
+      number("max_candidates", FIELD(hough.max_candidates), 1, 64, "", "flange candidates examined per frame"),
       // Concentric matcher (thesis Eq. 3.1, Rule 2)
       choice<MatchMode>("mode", FIELD(matcher.mode), {"mcht", "cht"},
                         "mcht: hole must be concentric with the flange; cht: no constraint"),
@@ -129,18 +129,15 @@ std::vector<ParamSpec> buildSpecs()
       number("max_view_pitch", FIELD(matcher.max_view_pitch), 0.0, 1.2, "rad",
              "the same up or down (camera pitch and height over the hole)"),
       // Geometry (thesis §3.4)
-      number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m",
-             "spool flange diameter"),
-      number("hole_diameter", FIELD(geometry.hole_diameter), 0.001, 1.0, "m",
-             "centre hole (bore) diameter"),
-      number("puller_diameter", FIELD(geometry.puller_diameter), 0.0, 1.0, "m",
-             "puller peg diameter"),
+      number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m", "spool flange diameter"),
+      number("hole_diameter", FIELD(geometry.hole_diameter), 0.001, 1.0, "m", "centre hole (bore) diameter"),
+      number("puller_diameter", FIELD(geometry.puller_diameter), 0.0, 1.0, "m", "puller peg diameter"),
       number("distance_min", FIELD(geometry.distance_min), 0.05, 20.0, "m",
              "nearest working distance (sets the largest radii)"),
       number("distance_max", FIELD(geometry.distance_max), 0.05, 20.0, "m",
              "farthest working distance (sets the smallest radii)"),
-      number("fallback_focal_length", FIELD(geometry.fallback_focal_length), 1.0, 10000.0,
-             "px at 120 rows", "focal length without camera info, scaled with image height"),
+      number("fallback_focal_length", FIELD(geometry.fallback_focal_length), 1.0, 10000.0, "px at 120 rows",
+             "focal length without camera info, scaled with image height"),
       choice<YawMode>("yaw_mode", FIELD(geometry.yaw_mode), {"pinhole", "linear_fov"},
                       "pinhole: atan(du / fx); linear_fov: thesis Eq. 3.4/3.5"),
       number("field_of_view", FIELD(geometry.field_of_view), 0.01, 3.1, "rad",
@@ -161,8 +158,7 @@ std::vector<ParamSpec> buildSpecs()
              "largest |yaw| reported as aligned (0.25 deg = 0.00436)"),
       number("aligned_distance_min", FIELD(geometry.aligned_distance_min), 0.0, 20.0, "m",
              "insertion window, near end"),
-      number("aligned_distance_max", FIELD(geometry.aligned_distance_max), 0.0, 20.0, "m",
-             "insertion window, far end"),
+      number("aligned_distance_max", FIELD(geometry.aligned_distance_max), 0.0, 20.0, "m", "insertion window, far end"),
   };
 }
 #undef FIELD
@@ -262,24 +258,22 @@ void validateParams(const DetectorParams& p)
   for (const auto& spec : paramSpecs())
     checkedValue(spec, spec.get(p));
 
-  auto order = [](const char* lo_key, double lo, const char* hi_key, double hi) {
+  auto order = [](const char* lo_key, double lo, const char* hi_key, double hi)
+  {
     if (lo > 0.0 && hi > 0.0 && lo >= hi)
-      throw ParamError(hi_key, "must be greater than " + std::string(lo_key) + " (" +
-                                   formatNumber(lo) + ")");
+      throw ParamError(hi_key, "must be greater than " + std::string(lo_key) + " (" + formatNumber(lo) + ")");
   };
   const auto& h = p.hough;
   order("flange_radius_min", h.flange_radius_min, "flange_radius_max", h.flange_radius_max);
   order("hole_radius_min", h.hole_radius_min, "hole_radius_max", h.hole_radius_max);
   const auto& g = p.geometry;
   order("distance_min", g.distance_min, "distance_max", g.distance_max);
-  order("aligned_distance_min", g.aligned_distance_min, "aligned_distance_max",
-        g.aligned_distance_max);
+  order("aligned_distance_min", g.aligned_distance_min, "aligned_distance_max", g.aligned_distance_max);
   if (g.hole_diameter >= g.flange_diameter)
-    throw ParamError("hole_diameter", "must be smaller than flange_diameter (" +
-                                          formatNumber(g.flange_diameter) + " m)");
+    throw ParamError("hole_diameter",
+                     "must be smaller than flange_diameter (" + formatNumber(g.flange_diameter) + " m)");
   if (g.puller_diameter > g.hole_diameter)
-    throw ParamError("puller_diameter", "must not exceed hole_diameter (" +
-                                            formatNumber(g.hole_diameter) + " m)");
+    throw ParamError("puller_diameter", "must not exceed hole_diameter (" + formatNumber(g.hole_diameter) + " m)");
   const int k = p.preprocess.filter_kernel;
   if (k % 2 == 0)
     throw ParamError("filter_kernel", std::to_string(k) + " is even; allowed: odd integers in [1, 31]");

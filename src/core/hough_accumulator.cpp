@@ -29,7 +29,8 @@ float centreSign(Polarity polarity)
 double visibleRimFraction(double x, double y, double r, cv::Size image_size)
 {
   // Unit-circle samples computed once; this runs for every radius bin of every peak.
-  static const auto kUnit = [] {
+  static const auto kUnit = []
+  {
     std::array<cv::Point2d, kRimSamples> unit;
     for (int i = 0; i < kRimSamples; ++i)
     {
@@ -76,7 +77,8 @@ void EdgeDetector::computeGradients(const cv::Mat& gray8)
     short* gx = gx_.ptr<short>(y);
     short* gy = gy_.ptr<short>(y);
     int* m = mag_.ptr<int>(y);
-    auto at = [&](int x, int l, int r) {
+    auto at = [&](int x, int l, int r)
+    {
       const int dx = (up[r] + 2 * mid[r] + down[r]) - (up[l] + 2 * mid[l] + down[l]);
       const int dy = (down[l] + 2 * down[x] + down[r]) - (up[l] + 2 * up[x] + up[r]);
       gx[x] = static_cast<short>(dx);
@@ -176,13 +178,12 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
     const float* c = votes_.ptr<float>(y + 1);
     float* out = smoothed_.ptr<float>(y);
     for (int x = 1; x + 1 < votes_.cols; ++x)
-      out[x] = (a[x - 1] + 2 * a[x] + a[x + 1] + 2 * (b[x - 1] + 2 * b[x] + b[x + 1]) + c[x - 1] + 2 * c[x] +
-                c[x + 1]) *
-               (1.0f / 16.0f);
+      out[x] =
+          (a[x - 1] + 2 * a[x] + a[x + 1] + 2 * (b[x - 1] + 2 * b[x] + b[x + 1]) + c[x - 1] + 2 * c[x] + c[x + 1]) *
+          (1.0f / 16.0f);
   }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
-  const float floor_votes =
-      static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
+  const float floor_votes = static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
   for (int y = 1; y + 1 < smoothed_.rows; ++y)
   {
     const float* up = smoothed_.ptr<float>(y - 1);
@@ -191,8 +192,8 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
     for (int x = 1; x + 1 < smoothed_.cols; ++x)
     {
       const float v = row[x];
-      if (v < floor_votes || v < row[x - 1] || v <= row[x + 1] || v < up[x - 1] || v < up[x] ||
-          v < up[x + 1] || v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
+      if (v < floor_votes || v < row[x - 1] || v <= row[x + 1] || v < up[x - 1] || v < up[x] || v < up[x + 1] ||
+          v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
         continue;
       // Sub-cell centre from a parabola through the neighbours on each axis.
       const float dxden = row[x - 1] - 2 * v + row[x + 1];
@@ -292,8 +293,8 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
   return true;
 }
 
-bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                              const HoughSearch& search, Circle& circle)
+bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                              Circle& circle)
 {
   const float sign = centreSign(search.polarity);
   // Current rim model: an axis-aligned ellipse (a circle seen from a yawed camera is
@@ -409,8 +410,8 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   return r_fit >= search.r_min * 0.9 && r_fit <= search.r_max * 1.1;
 }
 
-void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                              const HoughSearch& search, std::vector<Circle>& circles)
+void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                              std::vector<Circle>& circles)
 {
   circles.clear();
   if (search.r_max <= 0.0 || search.r_max < search.r_min || edges.empty())
@@ -423,8 +424,7 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   {
     // Centres off the image still leave min_visible_fraction of the rim in view.
     const double margin = search.r_max * std::cos(kPi * search.min_visible_fraction);
-    window = cv::Rect2d(-margin, -margin, image_size.width + 2 * margin,
-                        image_size.height + 2 * margin);
+    window = cv::Rect2d(-margin, -margin, image_size.width + 2 * margin, image_size.height + 2 * margin);
   }
   // One cell of border keeps the peak test and the smoothing away from the window's edge.
   origin_ = cv::Point2d(window.x - cell_, window.y - cell_);
@@ -439,15 +439,17 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   for (const Peak& peak : peaks_)
   {
     Circle circle;
-    if (!measureRadius(edges, image_size, search, peak, circle) ||
-        !refine(edges, image_size, search, circle) || circle.score < search.min_score)
+    if (!measureRadius(edges, image_size, search, peak, circle) || !refine(edges, image_size, search, circle) ||
+        circle.score < search.min_score)
       continue;
     if (!search.center_window.empty() && !search.center_window.contains(cv::Point2d(circle.x, circle.y)))
       continue;
     // Two peaks can refine onto the same rim; keep the first (stronger) one.
-    const bool duplicate = std::any_of(circles.begin(), circles.end(), [&](const Circle& c) {
-      return std::hypot(c.x - circle.x, c.y - circle.y) < 0.25 * circle.r && std::abs(c.r - circle.r) < 0.1 * circle.r;
-    });
+    const bool duplicate = std::any_of(circles.begin(), circles.end(),
+                                       [&](const Circle& c) {
+                                         return std::hypot(c.x - circle.x, c.y - circle.y) < 0.25 * circle.r &&
+                                                std::abs(c.r - circle.r) < 0.1 * circle.r;
+                                       });
     if (!duplicate)
       circles.push_back(circle);
   }

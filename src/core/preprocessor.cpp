@@ -108,8 +108,8 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
     throw std::invalid_argument("empty image");
   if (image.type() != matTypeOf(format))
     throw std::invalid_argument("image type " + cv::typeToString(image.type()) +
-                                " does not match its pixel format (expected " +
-                                cv::typeToString(matTypeOf(format)) + ")");
+                                " does not match its pixel format (expected " + cv::typeToString(matTypeOf(format)) +
+                                ")");
   gray.create(image.size(), CV_8U);
   switch (format)
   {
@@ -151,8 +151,7 @@ void Preprocessor::filter(const cv::Mat& gray, cv::Mat& out)
     case FilterType::kUnsharp:
       // out = gray + amount * (gray - blur(gray)), saturated to 8 bit.
       gaussian(gray, blur_);
-      cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur_, -params_.unsharp_amount, 0.0,
-                      out);
+      cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur_, -params_.unsharp_amount, 0.0, out);
       break;
     case FilterType::kNone:
       gray.copyTo(out);

@@ -8,9 +8,7 @@
 namespace spool_vision
 {
 SpoolDetector::SpoolDetector(const DetectorParams& params)
-  : params_(params)
-  , preprocessor_(params.preprocess)
-  , matcher_(params.matcher, holeToFlangeRatio())
+  : params_(params), preprocessor_(params.preprocess), matcher_(params.matcher, holeToFlangeRatio())
 {
   validateParams(params);
 }
@@ -44,8 +42,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
     return *geometry_;
   using_fallback_ = !(camera_ && camera_->width == size.width && camera_->height == size.height);
   const CameraIntrinsics camera =
-      using_fallback_ ? CameraIntrinsics::thesisDefault(size.width, size.height,
-                                                        params_.geometry.fallback_focal_length)
+      using_fallback_ ? CameraIntrinsics::thesisDefault(size.width, size.height, params_.geometry.fallback_focal_length)
                       : *camera_;
   geometry_.emplace(params_.geometry, camera);
   matcher_ = ConcentricMatcher(params_.matcher, holeToFlangeRatio(), camera.fy);
@@ -91,8 +88,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   return result;
 }
 
-void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, double hole_max,
-                                 SpoolDetection& result)
+void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, double hole_max, SpoolDetection& result)
 {
   const HoughParams& hp = params_.hough;
   HoughSearch hole_search;

@@ -49,8 +49,7 @@ double SpoolGeometry::nominalDistance() const
   return 0.5 * (params_.aligned_distance_min + params_.aligned_distance_max);
 }
 
-void SpoolGeometry::radiusRanges(double& flange_min, double& flange_max, double& hole_min,
-                                 double& hole_max) const
+void SpoolGeometry::radiusRanges(double& flange_min, double& flange_max, double& hole_min, double& hole_max) const
 {
   const double f = camera_.fy;
   flange_min = f * params_.flange_diameter / 2.0 / params_.distance_max;
@@ -82,12 +81,10 @@ void SpoolGeometry::measure(SpoolDetection& d) const
   d.lateral_offset = d.distance * std::tan(d.yaw);
 
   const double tol = params_.overlap_tolerance;
-  auto on_reference = [&](const Circle& c) {
-    return std::abs(c.x - d.reference.x) <= tol && std::abs(c.y - d.reference.y) <= tol;
-  };
+  auto on_reference = [&](const Circle& c)
+  { return std::abs(c.x - d.reference.x) <= tol && std::abs(c.y - d.reference.y) <= tol; };
   d.overlapped = d.hole_detected && on_reference(d.flange) && on_reference(d.hole);
-  d.aligned = d.overlapped && std::abs(d.yaw) <= params_.aligned_max_yaw &&
-              std::abs(d.lateral_offset) <= d.tolerance &&
+  d.aligned = d.overlapped && std::abs(d.yaw) <= params_.aligned_max_yaw && std::abs(d.lateral_offset) <= d.tolerance &&
               d.distance >= params_.aligned_distance_min && d.distance <= params_.aligned_distance_max;
 }
 

@@ -106,13 +106,13 @@ std::string cameraInfoToYaml(const CameraIntrinsics& k, const std::string& camer
   os << "image_width: " << k.width << "\n"
      << "image_height: " << k.height << "\n"
      << "camera_name: " << camera_name << "\n"
-     << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, " << k.fy
-     << ", " << k.cy << ", 0, 0, 1]\n"
+     << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, " << k.fy << ", " << k.cy
+     << ", 0, 0, 1]\n"
      << "distortion_model: plumb_bob\n"
      << "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [0, 0, 0, 0, 0]\n"
      << "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
-     << "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, 0, "
-     << k.fy << ", " << k.cy << ", 0, 0, 0, 1, 0]\n";
+     << "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, 0, " << k.fy << ", "
+     << k.cy << ", 0, 0, 0, 1, 0]\n";
   return os.str();
 }
 

@@ -47,8 +47,9 @@ struct Options
 
 Options parseOptions(int argc, char** argv)
 {
-  const sv::cli::CommandLine line(argc, argv, {"--out", "--count", "--negatives", "--repeats", "--seed", "--config-dir"},
-                                  kUsage, false, {"--quick", "--require-bars"});
+  const sv::cli::CommandLine line(argc, argv,
+                                  {"--out", "--count", "--negatives", "--repeats", "--seed", "--config-dir"}, kUsage,
+                                  false, {"--quick", "--require-bars"});
   Options o;
   o.out = line.text("--out");
   o.quick = line.has("--quick");

@@ -48,8 +48,8 @@ void fillEllipse(cv::Mat& gray, double x, double y, double a, double b, int valu
 
 DrawnSpool spoolAt(const CameraIntrinsics& camera, double depth, double lateral, double below)
 {
-  return {camera.cx + camera.fx * lateral / depth, camera.cy + camera.fy * below / depth,
-          camera.fy * 0.175 / depth, camera.fy * 0.018 / depth};
+  return {camera.cx + camera.fx * lateral / depth, camera.cy + camera.fy * below / depth, camera.fy * 0.175 / depth,
+          camera.fy * 0.018 / depth};
 }
 
 cv::Mat drawSceneGray(cv::Size size, const std::vector<DrawnSpool>& spools, const SceneStyle& style)

@@ -68,7 +68,8 @@ TEST(ConcentricMatcher, MchtTakesTheNearestPassingHole)
 {
   const ConcentricMatcher m(params(MatchMode::kMcht), kRatio);
   const Circle flange = circle(80, 60, 50);
-  const auto hole = m.matchHole(flange, {circle(81.8, 60, 5.1, 0.9), circle(80.2, 60.1, 5.2, 0.3), circle(20, 20, 5.1, 1.0)});
+  const auto hole =
+      m.matchHole(flange, {circle(81.8, 60, 5.1, 0.9), circle(80.2, 60.1, 5.2, 0.3), circle(20, 20, 5.1, 1.0)});
   ASSERT_TRUE(hole);
   EXPECT_DOUBLE_EQ(hole->x, 80.2);
   EXPECT_FALSE(m.matchHole(flange, {circle(20, 20, 5.1)}));

@@ -124,10 +124,12 @@ TEST(ConfigIo, CameraInfoRoundTrip)
 TEST(ConfigIo, CameraInfoErrors)
 {
   EXPECT_THROW(loadCameraInfoYaml(writeTemp("nok.yaml", "image_width: 640\n")), std::runtime_error);
-  EXPECT_THROW(loadCameraInfoYaml(writeTemp("zero.yaml", "image_width: 640\nimage_height: 480\n"
-                                                         "camera_matrix: {rows: 3, cols: 3, data: [0,0,0,0,0,0,0,0,0]}\n")),
+  EXPECT_THROW(loadCameraInfoYaml(writeTemp("zero.yaml",
+                                            "image_width: 640\nimage_height: 480\n"
+                                            "camera_matrix: {rows: 3, cols: 3, data: [0,0,0,0,0,0,0,0,0]}\n")),
                std::runtime_error);
-  EXPECT_THROW(loadCameraInfoYaml(writeTemp("short.yaml", "image_width: 640\nimage_height: 480\n"
-                                                          "camera_matrix: {rows: 3, cols: 3, data: [1, 2]}\n")),
+  EXPECT_THROW(loadCameraInfoYaml(writeTemp("short.yaml",
+                                            "image_width: 640\nimage_height: 480\n"
+                                            "camera_matrix: {rows: 3, cols: 3, data: [1, 2]}\n")),
                std::runtime_error);
 }

@@ -69,8 +69,7 @@ TEST(DetectorParams, ErrorsNameTheKeyAndTheRange)
 
   EXPECT_NE(errorOf([&] { setParam(p, "no_such_key", 1.0); }).find("no_such_key"), std::string::npos);
   EXPECT_NE(errorOf([&] { setParam(p, "filter_kernel", 2.5); }).find("not an integer"), std::string::npos);
-  EXPECT_NE(errorOf([&] { setParam(p, "sensitivity", std::string("high")); }).find("sensitivity"),
-            std::string::npos);
+  EXPECT_NE(errorOf([&] { setParam(p, "sensitivity", std::string("high")); }).find("sensitivity"), std::string::npos);
   EXPECT_NE(errorOf([&] { setParam(p, "mode", 1.0); }).find("mode"), std::string::npos);
   EXPECT_FALSE(errorOf([&] { setParam(p, "edge_threshold", std::nan("")); }).empty());
   EXPECT_DOUBLE_EQ(p.preprocess.binarize_threshold, 0.35);  // failed sets leave values alone

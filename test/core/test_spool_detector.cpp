@@ -16,8 +16,8 @@ using spool_vision::MatchMode;
 using spool_vision::PixelFormat;
 using spool_vision::SpoolDetection;
 using spool_vision::SpoolDetector;
-using spool_vision::test::drawScene;
 using spool_vision::test::DrawnSpool;
+using spool_vision::test::drawScene;
 using spool_vision::test::spoolAt;
 
 // Counts heap allocations while enabled, to check the steady-state promise.
@@ -83,7 +83,8 @@ TEST(SpoolDetector, AlignedInTheInsertionWindow)
   EXPECT_TRUE(d.aligned);
 
   // 4 mm sideways is more than the 2.5 mm clearance.
-  const SpoolDetection off = detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.55, 0.004, 0.06)}), PixelFormat::kBgr8);
+  const SpoolDetection off =
+      detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.55, 0.004, 0.06)}), PixelFormat::kBgr8);
   ASSERT_TRUE(off.detected);
   EXPECT_NEAR(off.lateral_offset, 0.004, 0.001);
   EXPECT_FALSE(off.aligned);
