@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "spool_vision/detector_params.h"
+#include "spool_vision/hough_accumulator.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision
@@ -31,6 +32,11 @@ public:
   /// so phi reaches max_view_angle sideways (tens of pixels at 50 cm and 640x480) but only
   /// max_view_pitch up or down, which keeps the window small where it need not be large.
   cv::Size2d centreTolerance(const Circle& flange) const;
+
+  /// Narrows `search` to where a hole accept() takes can be: centres in the concentric window
+  /// (and inside an image of `image_size`: a spool whose axis is out of view is not in front of
+  /// the robot), radii around the size the flange implies. False when nothing can pass.
+  bool narrowHoleSearch(const Circle& flange, cv::Size image_size, HoughSearch& search) const;
 
   /// True when `hole` may belong to `flange`: in mcht mode its centre lies within
   /// centreTolerance() and its radius fits the known ratio; in cht mode always.

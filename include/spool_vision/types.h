@@ -45,6 +45,15 @@ struct CameraIntrinsics
     return fx > 0.0 && fy > 0.0 && width > 0 && height > 0;
   }
 
+  bool operator==(const CameraIntrinsics& o) const
+  {
+    return fx == o.fx && fy == o.fy && cx == o.cx && cy == o.cy && width == o.width && height == o.height;
+  }
+  bool operator!=(const CameraIntrinsics& o) const
+  {
+    return !(*this == o);
+  }
+
   /// The thesis camera (C270: f = 200 px at 120 rows) scaled to an image of the given size,
   /// principal point at the image centre. `focal_at_120_rows` lets a config override 200 px.
   static CameraIntrinsics thesisDefault(int width, int height, double focal_at_120_rows = 200.0)

@@ -18,6 +18,19 @@ cv::Size2d ConcentricMatcher::centreTolerance(const Circle& flange) const
           params_.concentric_tolerance + drift * std::tan(params_.max_view_pitch)};
 }
 
+bool ConcentricMatcher::narrowHoleSearch(const Circle& flange, cv::Size image_size, HoughSearch& search) const
+{
+  const cv::Size2d tol = centreTolerance(flange);
+  search.center_window =
+      cv::Rect2d(flange.x - tol.width, flange.y - tol.height, 2.0 * tol.width + 1e-9, 2.0 * tol.height + 1e-9) &
+      cv::Rect2d(0.0, 0.0, image_size.width, image_size.height);
+  const double expected = ratio_ * flange.r_vertical;
+  const double spread = params_.hole_ratio_tolerance * expected;
+  search.r_min = std::max({search.r_min, expected - spread, 1.5});
+  search.r_max = std::min(search.r_max, expected + spread);
+  return !search.center_window.empty() && search.r_min <= search.r_max;
+}
+
 bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const
 {
   if (params_.mode == MatchMode::kCht)

@@ -101,72 +101,52 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, 
 
   ConcentricMatcher::orderByReference(flanges_, reference, order_);
   holes_.clear();
+  auto take = [&result](const Circle& flange, const std::optional<Circle>& hole)
+  {
+    result.detected = true;
+    result.flange = flange;
+    result.confidence = flange.score;
+    result.hole_detected = hole.has_value();
+    if (hole)
+      result.hole = *hole;
+  };
   if (params_.matcher.mode == MatchMode::kCht)
   {
     // The thesis baseline: the flange nearest the reference, the strongest hole anywhere.
     if (order_.empty())
       return;
-    const Circle& target = flanges_[order_.front()];
-    result.detected = true;
-    result.flange = target;
-    result.confidence = target.score;
     edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()), hole_edges_);
     hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
-    if (const auto hole = matcher_.matchHole(target, holes_))
-    {
-      result.hole_detected = true;
-      result.hole = *hole;
-    }
+    const Circle& target = flanges_[order_.front()];
+    take(target, matcher_.matchHole(target, holes_));
     return;
   }
   // MCHT: a flange is a spool only with a concentric hole of the right size, so false circles
   // (arcs of neighbours, shelf edges, round objects without a bore) do not become the target.
-  // Candidates are tried nearest-first; the hole search looks only in the concentric window,
-  // at the radius the flange implies.
-  const double ratio = holeToFlangeRatio();
+  // Candidates are tried nearest-first; the hole search looks only where such a hole can be.
   for (const std::size_t i : order_)
   {
     const Circle& flange = flanges_[i];
-    const cv::Size2d tol = matcher_.centreTolerance(flange);
     HoughSearch search = hole_search;
-    // The hole centre must be in the frame: a spool whose axis is out of view is not in front
-    // of the robot, however much of its flange shows.
-    search.center_window =
-        cv::Rect2d(flange.x - tol.width, flange.y - tol.height, 2.0 * tol.width + 1e-9, 2.0 * tol.height + 1e-9) &
-        cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
-    if (search.center_window.empty())
+    if (!matcher_.narrowHoleSearch(flange, preprocessed_.size(), search))
       continue;
-    const double expected = flange.r_vertical * ratio;
-    const double spread = params_.matcher.hole_ratio_tolerance * expected;
-    search.r_min = std::max({search.r_min, expected - spread, 1.5});
-    search.r_max = std::min(search.r_max, expected + spread);
-    if (search.r_min > search.r_max)
-      continue;
-    // Only edges that can lie on a concentric hole's rim, at the hole's own threshold.
-    const double reach_x = tol.width + search.r_max + 2.0;
-    const double reach_y = tol.height + search.r_max + 2.0;
-    const cv::Rect window(cvFloor(flange.x - reach_x), cvFloor(flange.y - reach_y), cvCeil(2.0 * reach_x) + 1,
+    // Only edges that can lie on that hole's rim, at the hole's own threshold.
+    const cv::Point2d centre = (search.center_window.tl() + search.center_window.br()) * 0.5;
+    const double reach_x = 0.5 * search.center_window.width + search.r_max + 2.0;
+    const double reach_y = 0.5 * search.center_window.height + search.r_max + 2.0;
+    const cv::Rect window(cvFloor(centre.x - reach_x), cvFloor(centre.y - reach_y), cvCeil(2.0 * reach_x) + 1,
                           cvCeil(2.0 * reach_y) + 1);
     edge_detector_.extract(hp.hole_edge_threshold, window, hole_edges_);
     hole_hough_.detect(hole_edges_, preprocessed_.size(), search, holes_);
     if (const auto hole = matcher_.matchHole(flange, holes_))
     {
-      result.detected = true;
-      result.flange = flange;
-      result.confidence = flange.score;
-      result.hole_detected = true;
-      result.hole = *hole;
+      take(flange, hole);
       return;
     }
   }
   holes_.clear();
   if (params_.matcher.spool_evidence == SpoolEvidence::kFlange && !order_.empty())
-  {
-    const Circle& target = flanges_[order_.front()];
-    result.detected = true;
-    result.flange = target;
-    result.confidence = target.score;
-  }
+    take(flanges_[order_.front()], std::nullopt);
 }
 
 }  // namespace spool_vision

@@ -51,10 +51,6 @@ size_t judgedIndex(const std::vector<SpoolTruth>& spools, size_t target, const C
   return target;
 }
 
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b)
-{
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width && a.height == b.height;
-}
 }  // namespace
 
 std::vector<SpoolTruth> renderedSpools(const GroundTruth& truth)
@@ -187,7 +183,7 @@ std::vector<FrameScore> evaluate(SpoolDetector& detector, const std::vector<Rend
   {
     const GroundTruth& truth = frames[i].truth;
     // Only on a change: a new camera rebuilds the detector's geometry.
-    if (i == 0 || !sameCamera(truth.camera, frames[i - 1].truth.camera))
+    if (i == 0 || truth.camera != frames[i - 1].truth.camera)
       detector.setCamera(truth.camera);
     scores.push_back(scoreFrame(truth, detector.detect(frames[i].image, PixelFormat::kBgr8)));
   }

@@ -71,11 +71,6 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
   return value;
 }
 
-bool sameCamera(const CameraIntrinsics& a, const CameraIntrinsics& b)
-{
-  return a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.width == b.width && a.height == b.height;
-}
-
 }  // namespace
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
@@ -186,7 +181,7 @@ void SpoolDetectorRos::cameraInfoCallback(const sensor_msgs::CameraInfoConstPtr&
     camera.cy = k[5];
     camera.width = static_cast<int>(msg->width);
     camera.height = static_cast<int>(msg->height);
-    if (!info_camera_ || !sameCamera(*info_camera_, camera))
+    if (!info_camera_ || *info_camera_ != camera)
     {
       detector_.setCamera(camera);
       info_camera_ = camera;
