@@ -22,8 +22,10 @@ struct SpoolMatch
 class ConcentricMatcher
 {
 public:
-  /// `focal_length` (px) sizes the perspective allowance of centreTolerance(); 0 = none.
-  ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio, double focal_length = 0.0);
+  /// `spool` gives the hole/flange ratio and the hub length; `camera` sizes the perspective
+  /// allowances (without one the window is concentric_tolerance alone).
+  ConcentricMatcher(const MatcherParams& params, const GeometryParams& spool,
+                    const std::optional<CameraIntrinsics>& camera = std::nullopt);
 
   /// How far (px; width along x, height along y) a concentric hole's centre may lie from
   /// `flange`'s fitted centre. A flange seen at an angle phi projects to an ellipse whose centre
@@ -33,9 +35,35 @@ public:
   /// max_view_pitch up or down, which keeps the window small where it need not be large.
   cv::Size2d centreTolerance(const Circle& flange) const;
 
-  /// Narrows `search` to where a hole accept() takes can be: centres in the concentric window
-  /// (and inside an image of `image_size`: a spool whose axis is out of view is not in front of
-  /// the robot), radii around the size the flange implies. False when nothing can pass.
+  /// The spool's back flange as this camera sees it (no back flange without a camera or in
+  /// cht mode).
+  const BackFlange& backFlange() const
+  {
+    return back_;
+  }
+
+  /// How far (px) the spool's true centre can lie outward of `flange`'s fitted centre along x
+  /// (width) and y (height), away from the principal point. An oblique rim fit follows the
+  /// front and back flanges' joint silhouette (see BackFlange) and lands between the two discs;
+  /// at worst it is the back disc itself, whose depth Z + L = f R / r puts the front centre
+  /// (fit - principal point) * L r / (f R) further out.
+  cv::Size2d silhouetteShift(const Circle& flange) const;
+
+  /// How much larger than `flange` the front flange can be: (Z + L) / Z = 1 + L r / (f R) when
+  /// the fit is the back disc; 1 without a back flange.
+  double backToFront(const Circle& flange) const;
+
+  /// True when a rim fit `fit` can be the joint silhouette of the front flange rim `front` and
+  /// its back flange: its centre between the two discs' centres (give or take centreTolerance())
+  /// and its radius between theirs (give or take 10%). A rim measured again about a hole must
+  /// explain the fit that led to it; otherwise the "hole" was some other round mark.
+  bool explainsFit(const Circle& front, const Circle& fit) const;
+
+  /// Narrows `search` to where the hole of `flange`'s spool can be: centres in the concentric
+  /// window widened outward by silhouetteShift() (and inside an image of `image_size`: a spool
+  /// whose axis is out of view is not in front of the robot), radii around the size the flange
+  /// implies (up to the front flange's when the fit is the back one). A hole found there but
+  /// not accept()ed shows where to measure the front rim again. False when nothing can pass.
   bool narrowHoleSearch(const Circle& flange, cv::Size image_size, HoughSearch& search) const;
 
   /// True when `hole` may belong to `flange`: in mcht mode its centre lies within
@@ -54,8 +82,9 @@ public:
 
 private:
   MatcherParams params_;
-  double ratio_;
-  double focal_length_;
+  double ratio_;         ///< hole / flange diameter
+  double focal_length_;  ///< px, 0 without a camera
+  BackFlange back_;
 };
 
 }  // namespace spool_vision

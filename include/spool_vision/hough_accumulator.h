@@ -35,6 +35,31 @@ private:
   cv::Mat gx_, gy_, mag_;
 };
 
+/// Where a spool's back flange appears behind a front flange rim (x, y, r) seen through a
+/// pinhole: hub_length L further away, so its disc is the front disc scaled by
+/// k = Z / (Z + L) = 1 / (1 + growth * r) about the principal point (the spool axis taken along
+/// the optical axis). Both flanges are black: no edge shows where the front rim lies over the
+/// back disc, and an oblique rim fit follows the two discs' joint silhouette.
+struct BackFlange
+{
+  cv::Point2d principal_point;
+  double growth = 0.0;  ///< L / (f R), 1/px; 0 = no back flange
+
+  /// Z / (Z + L) for a front rim of radius `r` px.
+  double scale(double r) const
+  {
+    return 1.0 / (1.0 + growth * r);
+  }
+  /// True when (px, py) lies inside the back disc of the front rim (x, y, r).
+  bool hides(double x, double y, double r, double px, double py) const
+  {
+    const double k = scale(r);
+    const double bx = principal_point.x + k * (x - principal_point.x);
+    const double by = principal_point.y + k * (y - principal_point.y);
+    return growth > 0.0 && (px - bx) * (px - bx) + (py - by) * (py - by) < k * k * r * r;
+  }
+};
+
 /// Search settings for one radius range.
 struct HoughSearch
 {
@@ -60,6 +85,14 @@ public:
   void detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
               std::vector<Circle>& circles);
 
+  /// The rim circle of `search`'s radius range centred on `centre` (a known axis: a hole's
+  /// centre), with no centre fit: a fit of a one-sided arc would follow whatever else lies on
+  /// it. The radius takes the support histogram's rule of detect() and the mean distance of the
+  /// supporting edges; the score is their fraction of the rim that can show (in the image, not
+  /// over `back`'s disc). False without support.
+  bool fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+             const cv::Point2d& centre, const BackFlange& back, Circle& circle);
+
   /// The raw vote image of the last call (CV_32F, one cell per `cellSize()` px), for debugging.
   const cv::Mat& votes() const
   {
@@ -80,7 +113,7 @@ private:
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
   void findPeaks(const HoughSearch& search, int max_peaks);
   bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-                     const Peak& peak, Circle& circle);
+                     const Peak& peak, double slack, const BackFlange& back, Circle& circle);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
 
   cv::Mat votes_;
@@ -92,7 +125,8 @@ private:
   std::vector<double> scores_;
 };
 
-/// Fraction of a circle's circumference that lies inside an image of the given size.
-double visibleRimFraction(double x, double y, double r, cv::Size image_size);
+/// Fraction of a circle's circumference that can show: inside an image of the given size and,
+/// for a spool's front rim, not over its `back` flange.
+double visibleRimFraction(double x, double y, double r, cv::Size image_size, const BackFlange& back = {});
 
 }  // namespace spool_vision

@@ -60,12 +60,13 @@ public:
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
-  double holeToFlangeRatio() const
-  {
-    return params_.geometry.hole_diameter / params_.geometry.flange_diameter;
-  }
   /// Picks the target among the flange candidates and finds its hole (thesis Rule 2).
-  void selectTarget(const cv::Point2d& reference, double hole_min, double hole_max, SpoolDetection& result);
+  void selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min, double hole_max,
+                    SpoolDetection& result);
+  /// `flange`'s spool: the flange (measured again about the hole when the fit was off it) and a
+  /// hole found in `hole_search` that passes the concentric rule; nullopt when none does.
+  std::optional<SpoolMatch> matchSpool(const Circle& flange, const HoughSearch& hole_search,
+                                       const HoughSearch& flange_search);
 
   DetectorParams params_;
   Preprocessor preprocessor_;
@@ -81,7 +82,8 @@ private:
   std::vector<EdgePoint> edges_;
   std::vector<EdgePoint> hole_edges_;
   std::vector<Circle> flanges_;
-  std::vector<Circle> holes_;
+  std::vector<Circle> holes_;         ///< hole candidates of the target (or of the last search)
+  std::vector<Circle> target_holes_;  ///< the best candidate's while the others are searched
   std::vector<std::size_t> order_;
 };
 

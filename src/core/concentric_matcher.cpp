@@ -6,9 +6,12 @@
 
 namespace spool_vision
 {
-ConcentricMatcher::ConcentricMatcher(const MatcherParams& params, double hole_to_flange_ratio, double focal_length)
-  : params_(params), ratio_(hole_to_flange_ratio), focal_length_(focal_length)
+ConcentricMatcher::ConcentricMatcher(const MatcherParams& params, const GeometryParams& spool,
+                                     const std::optional<CameraIntrinsics>& camera)
+  : params_(params), ratio_(spool.hole_diameter / spool.flange_diameter), focal_length_(camera ? camera->fy : 0.0)
 {
+  if (camera && params.mode == MatchMode::kMcht)
+    back_ = {{camera->cx, camera->cy}, spool.hub_length / (camera->fy * 0.5 * spool.flange_diameter)};
 }
 
 cv::Size2d ConcentricMatcher::centreTolerance(const Circle& flange) const
@@ -18,17 +21,48 @@ cv::Size2d ConcentricMatcher::centreTolerance(const Circle& flange) const
           params_.concentric_tolerance + drift * std::tan(params_.max_view_pitch)};
 }
 
+cv::Size2d ConcentricMatcher::silhouetteShift(const Circle& flange) const
+{
+  const double depth_ratio = backToFront(flange) - 1.0;
+  return {std::abs(flange.x - back_.principal_point.x) * depth_ratio,
+          std::abs(flange.y - back_.principal_point.y) * depth_ratio};
+}
+
+double ConcentricMatcher::backToFront(const Circle& flange) const
+{
+  return 1.0 / back_.scale(flange.r_vertical);
+}
+
 bool ConcentricMatcher::narrowHoleSearch(const Circle& flange, cv::Size image_size, HoughSearch& search) const
 {
   const cv::Size2d tol = centreTolerance(flange);
-  search.center_window =
-      cv::Rect2d(flange.x - tol.width, flange.y - tol.height, 2.0 * tol.width + 1e-9, 2.0 * tol.height + 1e-9) &
-      cv::Rect2d(0.0, 0.0, image_size.width, image_size.height);
+  const cv::Size2d shift = silhouetteShift(flange);
+  // Outward is away from the principal point on each axis.
+  const double left = tol.width + (flange.x < back_.principal_point.x ? shift.width : 0.0);
+  const double right = tol.width + (flange.x < back_.principal_point.x ? 0.0 : shift.width);
+  const double up = tol.height + (flange.y < back_.principal_point.y ? shift.height : 0.0);
+  const double down = tol.height + (flange.y < back_.principal_point.y ? 0.0 : shift.height);
+  // Pixel centres are integers: the image spans -0.5 .. size - 0.5.
+  search.center_window = cv::Rect2d(flange.x - left, flange.y - up, left + right + 1e-9, up + down + 1e-9) &
+                         cv::Rect2d(-0.5, -0.5, image_size.width, image_size.height);
   const double expected = ratio_ * flange.r_vertical;
   const double spread = params_.hole_ratio_tolerance * expected;
   search.r_min = std::max({search.r_min, expected - spread, 1.5});
-  search.r_max = std::min(search.r_max, expected + spread);
+  search.r_max = std::min(search.r_max, (expected + spread) * backToFront(flange));
   return !search.center_window.empty() && search.r_min <= search.r_max;
+}
+
+bool ConcentricMatcher::explainsFit(const Circle& front, const Circle& fit) const
+{
+  const double k = back_.scale(front.r_vertical);
+  const cv::Point2d back = back_.principal_point + k * (cv::Point2d(front.x, front.y) - back_.principal_point);
+  const cv::Size2d tol = centreTolerance(front);
+  auto between = [](double v, double a, double b, double slack)
+  { return v >= std::min(a, b) - slack && v <= std::max(a, b) + slack; };
+  constexpr double kRadiusSlack = 0.1;
+  return between(fit.x, front.x, back.x, tol.width) && between(fit.y, front.y, back.y, tol.height) &&
+         fit.r_vertical >= (1.0 - kRadiusSlack) * k * front.r_vertical &&
+         fit.r_vertical <= (1.0 + kRadiusSlack) * front.r_vertical;
 }
 
 bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const

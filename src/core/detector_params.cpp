@@ -131,6 +131,8 @@ std::vector<ParamSpec> buildSpecs()
       // Geometry (thesis §3.4)
       number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m", "spool flange diameter"),
       number("hole_diameter", FIELD(geometry.hole_diameter), 0.001, 1.0, "m", "centre hole (bore) diameter"),
+      number("hub_length", FIELD(geometry.hub_length), 0.0, 5.0, "m",
+             "front to back flange face; places the hole when an oblique fit follows both flanges"),
       number("puller_diameter", FIELD(geometry.puller_diameter), 0.0, 1.0, "m", "puller peg diameter"),
       number("distance_min", FIELD(geometry.distance_min), 0.05, 20.0, "m",
              "nearest working distance (sets the largest radii)"),

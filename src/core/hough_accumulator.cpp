@@ -26,7 +26,7 @@ float centreSign(Polarity polarity)
 }
 }  // namespace
 
-double visibleRimFraction(double x, double y, double r, cv::Size image_size)
+double visibleRimFraction(double x, double y, double r, cv::Size image_size, const BackFlange& back)
 {
   // Unit-circle samples computed once; this runs for every radius bin of every peak.
   static const auto kUnit = []
@@ -40,7 +40,8 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size)
     return unit;
   }();
   // Whole circle inside: the common case needs no sampling.
-  if (x - r >= -0.5 && y - r >= -0.5 && x + r <= image_size.width - 0.5 && y + r <= image_size.height - 0.5)
+  if (back.growth <= 0.0 && x - r >= -0.5 && y - r >= -0.5 && x + r <= image_size.width - 0.5 &&
+      y + r <= image_size.height - 0.5)
     return 1.0;
   const double max_x = image_size.width - 0.5;
   const double max_y = image_size.height - 0.5;
@@ -49,7 +50,7 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size)
   {
     const double px = x + r * u.x;
     const double py = y + r * u.y;
-    inside += (px >= -0.5 && px <= max_x && py >= -0.5 && py <= max_y) ? 1 : 0;
+    inside += (px >= -0.5 && px <= max_x && py >= -0.5 && py <= max_y && !back.hides(x, y, r, px, py)) ? 1 : 0;
   }
   return static_cast<double>(inside) / kRimSamples;
 }
@@ -219,11 +220,10 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
 }
 
 bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                                     const HoughSearch& search, const Peak& peak, Circle& circle)
+                                     const HoughSearch& search, const Peak& peak, double slack, const BackFlange& back,
+                                     Circle& circle)
 {
   const float sign = centreSign(search.polarity);
-  // The centre is known to about a cell; the radius histogram must tolerate that much.
-  const double slack = cell_ + 1.0;
   const double lo = std::max(1.0, search.r_min - slack);
   const double hi = search.r_max + slack;
   const int bins = static_cast<int>(std::ceil(hi - lo)) + 1;
@@ -263,16 +263,18 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
     if (support < 3.0)
       continue;
     const double vis = visibleRimFraction(peak.x, peak.y, r, image_size);
-    if (vis < search.min_visible_fraction)
+    // The rim over the back flange cannot show; too little left to judge is no rim.
+    const double can_show = back.growth > 0.0 ? visibleRimFraction(peak.x, peak.y, r, image_size, back) : vis;
+    if (vis < search.min_visible_fraction || can_show < 0.5 * search.min_visible_fraction)
       continue;
-    scores[static_cast<size_t>(i)] = support / (2.0 * kPi * r * vis);
+    scores[static_cast<size_t>(i)] = support / (2.0 * kPi * r * can_show);
     best_score = std::max(best_score, scores[static_cast<size_t>(i)]);
   }
   if (best_score <= 0.0)
     return false;
   for (int i = bins - 2; i >= 1; --i)
   {
-    if (scores[static_cast<size_t>(i)] >= 0.8 * best_score)
+    if (scores[static_cast<size_t>(i)] >= (back.growth > 0.0 ? 1.0 : 0.8) * best_score)
     {
       // Take the local maximum at or just inside the first strong radius from outside.
       int j = i;
@@ -410,6 +412,42 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   return r_fit >= search.r_min * 0.9 && r_fit <= search.r_max * 1.1;
 }
 
+bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                             const cv::Point2d& centre, const BackFlange& back, Circle& circle)
+{
+  // The centre is given: the histogram needs no slack for a coarse accumulator cell.
+  if (!measureRadius(edges, image_size, search, {centre.x, centre.y, 0.0f}, 1.0, back, circle))
+    return false;
+  const float sign = centreSign(search.polarity);
+  const double band = std::max(1.5, 0.025 * circle.r);  // refine()'s final band
+  double sum = 0.0;
+  int count = 0;
+  for (int pass = 0; pass < 2; ++pass)
+  {
+    // First the mean distance of the supporting edges, then their count about that radius.
+    const double r = pass == 0 ? circle.r : sum / count;
+    sum = 0.0;
+    count = 0;
+    for (const EdgePoint& e : edges)
+    {
+      const double vx = e.x - centre.x;
+      const double vy = e.y - centre.y;
+      const double d = std::sqrt(vx * vx + vy * vy);
+      if (std::abs(d - r) > band || -sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
+        continue;
+      sum += d;
+      ++count;
+    }
+    if (count == 0)
+      return false;
+    circle.r = circle.r_vertical = r;
+  }
+  circle.visible_fraction = visibleRimFraction(centre.x, centre.y, circle.r, image_size);
+  const double can_show = visibleRimFraction(centre.x, centre.y, circle.r, image_size, back);
+  circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * circle.r * std::max(can_show, 1e-3)));
+  return circle.visible_fraction >= search.min_visible_fraction;
+}
+
 void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                               std::vector<Circle>& circles)
 {
@@ -439,8 +477,9 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   for (const Peak& peak : peaks_)
   {
     Circle circle;
-    if (!measureRadius(edges, image_size, search, peak, circle) || !refine(edges, image_size, search, circle) ||
-        circle.score < search.min_score)
+    // The centre is known to about a cell; the radius histogram must tolerate that much.
+    if (!measureRadius(edges, image_size, search, peak, cell_ + 1.0, {}, circle) ||
+        !refine(edges, image_size, search, circle) || circle.score < search.min_score)
       continue;
     if (!search.center_window.empty() && !search.center_window.contains(cv::Point2d(circle.x, circle.y)))
       continue;

@@ -8,7 +8,7 @@
 namespace spool_vision
 {
 SpoolDetector::SpoolDetector(const DetectorParams& params)
-  : params_(params), preprocessor_(params.preprocess), matcher_(params.matcher, holeToFlangeRatio())
+  : params_(params), preprocessor_(params.preprocess), matcher_(params.matcher, params.geometry)
 {
   validateParams(params);
 }
@@ -18,7 +18,7 @@ void SpoolDetector::setParams(const DetectorParams& params)
   validateParams(params);
   params_ = params;
   preprocessor_.setParams(params.preprocess);
-  matcher_ = ConcentricMatcher(params.matcher, holeToFlangeRatio());
+  matcher_ = ConcentricMatcher(params.matcher, params.geometry);
   geometry_.reset();
 }
 
@@ -45,7 +45,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
       using_fallback_ ? CameraIntrinsics::thesisDefault(size.width, size.height, params_.geometry.fallback_focal_length)
                       : *camera_;
   geometry_.emplace(params_.geometry, camera);
-  matcher_ = ConcentricMatcher(params_.matcher, holeToFlangeRatio(), camera.fy);
+  matcher_ = ConcentricMatcher(params_.matcher, params_.geometry, camera);
   return *geometry_;
 }
 
@@ -81,14 +81,15 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
 
   SpoolDetection result;
-  selectTarget(geometry.reference(geometry.nominalDistance()), pick(hp.hole_radius_min, hole_min),
+  selectTarget(geometry.reference(geometry.nominalDistance()), flange_search, pick(hp.hole_radius_min, hole_min),
                pick(hp.hole_radius_max, hole_max), result);
   geometry.measure(result);
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
-void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, double hole_max, SpoolDetection& result)
+void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min,
+                                 double hole_max, SpoolDetection& result)
 {
   const HoughParams& hp = params_.hough;
   HoughSearch hole_search;
@@ -123,30 +124,89 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, double hole_min, 
   }
   // MCHT: a flange is a spool only with a concentric hole of the right size, so false circles
   // (arcs of neighbours, shelf edges, round objects without a bore) do not become the target.
-  // Candidates are tried nearest-first; the hole search looks only where such a hole can be.
+  // The target is the spool whose hole (its axis) is nearest the reference, the distance
+  // divided by the rim score as in orderByReference(); candidates are tried in that order, and
+  // one that cannot beat the best so far even with a perfect rim is skipped.
+  std::optional<SpoolMatch> best;
+  double best_cost = 0.0;
   for (const std::size_t i : order_)
   {
-    const Circle& flange = flanges_[i];
     HoughSearch search = hole_search;
-    if (!matcher_.narrowHoleSearch(flange, preprocessed_.size(), search))
+    if (!matcher_.narrowHoleSearch(flanges_[i], preprocessed_.size(), search))
       continue;
-    // Only edges that can lie on that hole's rim, at the hole's own threshold.
-    const cv::Point2d centre = (search.center_window.tl() + search.center_window.br()) * 0.5;
-    const double reach_x = 0.5 * search.center_window.width + search.r_max + 2.0;
-    const double reach_y = 0.5 * search.center_window.height + search.r_max + 2.0;
-    const cv::Rect window(cvFloor(centre.x - reach_x), cvFloor(centre.y - reach_y), cvCeil(2.0 * reach_x) + 1,
-                          cvCeil(2.0 * reach_y) + 1);
-    edge_detector_.extract(hp.hole_edge_threshold, window, hole_edges_);
-    hole_hough_.detect(hole_edges_, preprocessed_.size(), search, holes_);
-    if (const auto hole = matcher_.matchHole(flange, holes_))
+    const cv::Rect2d& w = search.center_window;
+    const double nearest = std::hypot(reference.x - std::clamp(reference.x, w.x, w.x + w.width),
+                                      reference.y - std::clamp(reference.y, w.y, w.y + w.height));
+    if (best && nearest >= best_cost)
+      continue;
+    const std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
+    if (!match)
+      continue;
+    const double cost =
+        std::hypot(match->hole->x - reference.x, match->hole->y - reference.y) / std::max(match->flange.score, 1e-3);
+    if (!best || cost < best_cost)
     {
-      take(flange, hole);
-      return;
+      best = match;
+      best_cost = cost;
+      std::swap(holes_, target_holes_);
     }
+  }
+  if (best)
+  {
+    std::swap(holes_, target_holes_);
+    take(best->flange, best->hole);
+    return;
   }
   holes_.clear();
   if (params_.matcher.spool_evidence == SpoolEvidence::kFlange && !order_.empty())
     take(flanges_[order_.front()], std::nullopt);
+}
+
+std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const HoughSearch& hole_search,
+                                                    const HoughSearch& flange_search)
+{
+  // Only edges that can lie on the hole's rim, at the hole's own threshold.
+  const cv::Rect2d& w = hole_search.center_window;
+  const double reach = hole_search.r_max + 2.0;
+  const cv::Rect window(cvFloor(w.x - reach), cvFloor(w.y - reach), cvCeil(w.width + 2.0 * reach) + 1,
+                        cvCeil(w.height + 2.0 * reach) + 1);
+  edge_detector_.extract(params_.hough.hole_edge_threshold, window, hole_edges_);
+  hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
+  // A hole off the fitted centre may mean the fit followed the front and back flanges' joint
+  // silhouette: the front rim is then measured again about the hole (the spool's axis); that
+  // pair too must pass the concentric rule, and it must explain the fit.
+  HoughSearch front_search = flange_search;
+  front_search.r_min = std::max(flange_search.r_min, 0.9 * flange.r_vertical);
+  front_search.r_max = std::min(flange_search.r_max, 1.1 * flange.r_vertical * matcher_.backToFront(flange));
+  auto frontAbout = [&](const Circle& hole) -> std::optional<Circle>
+  {
+    Circle front;
+    if (flange_hough_.fitAt(edges_, preprocessed_.size(), front_search, {hole.x, hole.y}, matcher_.backFlange(),
+                            front) &&
+        front.score >= flange_search.min_score && matcher_.accepts(front, hole) && matcher_.explainsFit(front, flange))
+      return front;
+    return std::nullopt;
+  };
+  if (const auto hole = matcher_.matchHole(flange, holes_))
+  {
+    // The spool's support is the better of the two rims: a front rim partly hidden by its own
+    // back flange must not lose the target to a neighbour for it. The rim about the hole
+    // replaces the fit only when that is off the hole by more than concentric_tolerance (an
+    // ellipse fit on the rim measures better than a circle about the hole).
+    Circle kept = flange;
+    if (const auto front = frontAbout(*hole); front && front->score > flange.score)
+    {
+      const double tol = params_.matcher.concentric_tolerance;
+      if (std::abs(hole->x - flange.x) > tol || std::abs(hole->y - flange.y) > tol)
+        kept = *front;
+      kept.score = front->score;
+    }
+    return SpoolMatch{kept, hole};
+  }
+  for (const Circle& hole : holes_)
+    if (const auto front = frontAbout(hole))
+      return SpoolMatch{*front, hole};
+  return std::nullopt;
 }
 
 }  // namespace spool_vision

@@ -2,14 +2,19 @@
 
 #include "spool_vision/concentric_matcher.h"
 
+using spool_vision::CameraIntrinsics;
 using spool_vision::Circle;
 using spool_vision::ConcentricMatcher;
+using spool_vision::GeometryParams;
+using spool_vision::HoughSearch;
 using spool_vision::MatcherParams;
 using spool_vision::MatchMode;
 
 namespace
 {
 constexpr double kRatio = 3.6 / 35.0;
+const GeometryParams kSpool;                                              // 35 cm flange, 3.6 cm hole, 20 cm hub
+const CameraIntrinsics kVga = CameraIntrinsics::thesisDefault(640, 480);  // f = 800 px, centre (319.5, 239.5)
 Circle circle(double x, double y, double r, double score = 0.5)
 {
   Circle c;
@@ -31,14 +36,14 @@ MatcherParams params(MatchMode mode, double tol = 2.0)
 
 TEST(ConcentricMatcher, AcceptsAConcentricHoleOfTheRightSize)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kRatio);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
   const Circle flange = circle(80, 60, 50);
   EXPECT_TRUE(m.accepts(flange, circle(81.5, 58.5, 50 * kRatio)));
 }
 
 TEST(ConcentricMatcher, RejectsAnOffCentreHole)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kRatio);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
   const Circle flange = circle(80, 60, 50);
   EXPECT_FALSE(m.accepts(flange, circle(82.5, 60, 50 * kRatio)));
   EXPECT_FALSE(m.accepts(flange, circle(80, 57.4, 50 * kRatio)));
@@ -46,7 +51,7 @@ TEST(ConcentricMatcher, RejectsAnOffCentreHole)
 
 TEST(ConcentricMatcher, RejectsAWrongSizeRing)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kRatio);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
   const Circle flange = circle(80, 60, 50);
   EXPECT_FALSE(m.accepts(flange, circle(80, 60, 50 * kRatio * 1.5)));  // a rib, not the bore
   EXPECT_FALSE(m.accepts(flange, circle(80, 60, 50 * kRatio * 0.5)));
@@ -54,7 +59,7 @@ TEST(ConcentricMatcher, RejectsAWrongSizeRing)
 
 TEST(ConcentricMatcher, ChtModeHasNoConstraintAndTakesTheStrongest)
 {
-  const ConcentricMatcher m(params(MatchMode::kCht), kRatio);
+  const ConcentricMatcher m(params(MatchMode::kCht), kSpool);
   const Circle flange = circle(80, 60, 50);
   const Circle far_strong = circle(20, 20, 9, 0.9);
   const Circle concentric_weak = circle(80, 60, 5, 0.4);
@@ -66,7 +71,7 @@ TEST(ConcentricMatcher, ChtModeHasNoConstraintAndTakesTheStrongest)
 
 TEST(ConcentricMatcher, MchtTakesTheNearestPassingHole)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kRatio);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
   const Circle flange = circle(80, 60, 50);
   const auto hole =
       m.matchHole(flange, {circle(81.8, 60, 5.1, 0.9), circle(80.2, 60.1, 5.2, 0.3), circle(20, 20, 5.1, 1.0)});
@@ -87,4 +92,47 @@ TEST(ConcentricMatcher, CandidatesAreTriedNearestTheReferenceFirst)
   EXPECT_EQ(order, (std::vector<std::size_t>{1, 0}));
   ConcentricMatcher::orderByReference({}, {80, 50}, order);
   EXPECT_TRUE(order.empty());
+}
+
+TEST(ConcentricMatcher, HoleWindowWidensOutwardForTheBackFlange)
+{
+  MatcherParams p = params(MatchMode::kMcht, 4.0);
+  p.max_view_angle = p.max_view_pitch = 0.0;
+  const ConcentricMatcher m(p, kSpool, kVga);
+  // On the optical axis the back flange hides behind the front one: no widening.
+  const Circle on_axis = circle(kVga.cx, kVga.cy, 150);
+  EXPECT_DOUBLE_EQ(m.silhouetteShift(on_axis).width, 0.0);
+  EXPECT_DOUBLE_EQ(m.silhouetteShift(on_axis).height, 0.0);
+  // 230 px right of the axis at r = 150 px (Z = 0.93 m): the back disc, 20 cm further, would be
+  // (Z + L) / Z = 1 + 0.2 * 150 / (800 * 0.175) = 1.214 smaller and 230 * 0.214 px further in.
+  const Circle right = circle(kVga.cx + 230, kVga.cy, 150);
+  EXPECT_NEAR(m.backToFront(right), 1.0 + 0.2 * 150 / (800 * 0.175), 1e-12);
+  EXPECT_NEAR(m.silhouetteShift(right).width, 230 * 0.2 * 150 / (800 * 0.175), 1e-9);
+  HoughSearch search;
+  search.r_max = 1000;
+  ASSERT_TRUE(m.narrowHoleSearch(right, {640, 480}, search));
+  EXPECT_NEAR(right.x - search.center_window.x, 4.0, 1e-6);  // inward: the tolerance alone
+  EXPECT_NEAR(search.center_window.x + search.center_window.width - right.x, 4.0 + 230 * 0.2143, 0.1);
+  // The hole of a front flange up to 1.214 times the fitted disc is searched for.
+  EXPECT_NEAR(search.r_max, kRatio * 150 * 1.3 * m.backToFront(right), 1e-9);
+  // Without a camera nothing is known of the back flange.
+  const ConcentricMatcher no_camera(p, kSpool);
+  EXPECT_DOUBLE_EQ(no_camera.silhouetteShift(right).width, 0.0);
+  EXPECT_DOUBLE_EQ(no_camera.backToFront(right), 1.0);
+}
+
+TEST(ConcentricMatcher, ARimAboutTheHoleMustExplainTheFitThatLedToIt)
+{
+  const ConcentricMatcher m(params(MatchMode::kMcht, 4.0), kSpool, kVga);
+  const Circle front = circle(kVga.cx + 270, kVga.cy + 20, 150);
+  const double k = m.backFlange().scale(150);
+  const Circle back = circle(kVga.cx + k * 270, kVga.cy + k * 20, k * 150);
+  const Circle between = circle(0.5 * (front.x + back.x), 0.5 * (front.y + back.y), 0.5 * (front.r + back.r));
+  EXPECT_TRUE(m.explainsFit(front, front));
+  EXPECT_TRUE(m.explainsFit(front, back));
+  EXPECT_TRUE(m.explainsFit(front, between));
+  // Outward of the front disc, or bigger than it: some other round mark, not this spool.
+  EXPECT_FALSE(m.explainsFit(front, circle(front.x + 40, front.y, 150)));
+  EXPECT_FALSE(m.explainsFit(front, circle(between.x, between.y, 1.2 * 150)));
+  EXPECT_FALSE(m.explainsFit(front, circle(back.x, back.y, 0.8 * back.r)));
 }

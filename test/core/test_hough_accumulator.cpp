@@ -5,6 +5,7 @@
 #include "spool_vision/hough_accumulator.h"
 #include "synthetic.h"
 
+using spool_vision::BackFlange;
 using spool_vision::Circle;
 using spool_vision::EdgeDetector;
 using spool_vision::EdgePoint;
@@ -148,4 +149,64 @@ TEST(VisibleRimFraction, CountsTheRimInsideTheImage)
   EXPECT_NEAR(spool_vision::visibleRimFraction(50, 50, 20, {100, 100}), 1.0, 1e-9);
   EXPECT_NEAR(spool_vision::visibleRimFraction(-0.5, -0.5, 20, {100, 100}), 0.25, 0.02);
   EXPECT_NEAR(spool_vision::visibleRimFraction(99.5, 50, 20, {100, 100}), 0.5, 0.02);
+}
+
+TEST(BackFlange, HidesTheInnerSideOfAnObliqueFrontRim)
+{
+  // 640x480 thesis camera (f = 800 px), 35 cm flanges 20 cm apart.
+  const BackFlange back{{320, 240}, 0.2 / (800 * 0.175)};
+  const double k = back.scale(150);
+  EXPECT_NEAR(k, 1.0 / (1.0 + 0.2 * 150 / 140), 1e-12);
+  // Front rim 270 px right of the principal point: its back disc sits 270 * (1 - k) px inward.
+  EXPECT_TRUE(back.hides(590, 258, 150, 590 - 150, 258));   // inner side: over the back disc
+  EXPECT_FALSE(back.hides(590, 258, 150, 590 + 150, 258));  // outer side: against the wall
+  EXPECT_FALSE(back.hides(590, 258, 150, 590, 258 - 150));  // top: the back disc is smaller
+  const double can_show = spool_vision::visibleRimFraction(590, 258, 150, {2000, 2000}, back);
+  EXPECT_GT(can_show, 0.6);
+  EXPECT_LT(can_show, 0.9);
+  // On the axis the back disc is concentric and smaller: the whole rim shows.
+  EXPECT_NEAR(spool_vision::visibleRimFraction(320, 240, 150, {640, 480}, back), 1.0, 1e-9);
+  EXPECT_FALSE(BackFlange().hides(590, 258, 150, 590 - 150, 258));
+}
+
+TEST(HoughAccumulator, FitAtMeasuresTheFrontRimAboutAKnownCentre)
+{
+  // An oblique spool at the right border: the back disc (drawn first) shows beside the front
+  // one, and the plain fit follows their joint silhouette inward.
+  const BackFlange back{{320, 240}, 0.2 / (800 * 0.175)};
+  const double x = 585.3;
+  const double y = 262.6;
+  const double r = 150.4;
+  const double k = back.scale(r);
+  const cv::Mat img = drawSceneGray({640, 480}, {{320 + k * (x - 320), 240 + k * (y - 240), k * r, 0}, {x, y, r, 0}});
+  cv::Mat smooth;
+  cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
+  EdgeDetector detector;
+  std::vector<EdgePoint> edges;
+  detector.detect(smooth, 0.05, edges);
+  HoughSearch search;
+  search.r_min = 100;
+  search.r_max = 200;
+  HoughAccumulator hough;
+  std::vector<Circle> fits;
+  hough.detect(edges, img.size(), search, fits);
+  ASSERT_FALSE(fits.empty());
+  EXPECT_GT(x - fits.front().x, 5.0);  // the silhouette pulls the plain fit inward
+
+  Circle front;
+  ASSERT_TRUE(hough.fitAt(edges, img.size(), search, {x, y}, back, front));
+  EXPECT_DOUBLE_EQ(front.x, x);
+  EXPECT_DOUBLE_EQ(front.y, y);
+  EXPECT_NEAR(front.r, r, 0.5);
+  EXPECT_NEAR(front.r_vertical, front.r, 1e-12);
+  EXPECT_NEAR(front.visible_fraction, spool_vision::visibleRimFraction(x, y, front.r, img.size()), 1e-12);
+  // Scored against the rim that can show, the front rim is whole; against the whole in-frame
+  // rim it is not.
+  EXPECT_GT(front.score, 0.9);
+  Circle plain;
+  ASSERT_TRUE(hough.fitAt(edges, img.size(), search, {x, y}, BackFlange(), plain));
+  EXPECT_LT(plain.score, front.score - 0.1);
+
+  // Nothing about a centre with no rim around it in range.
+  EXPECT_FALSE(hough.fitAt(edges, img.size(), search, {100, 100}, back, front));
 }

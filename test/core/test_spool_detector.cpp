@@ -129,6 +129,26 @@ TEST(SpoolDetector, TargetsTheSpoolInFrontAmongNeighbours)
   EXPECT_TRUE(d.hole_detected);
 }
 
+TEST(SpoolDetector, MeasuresAnObliqueSpoolWhoseBackFlangeShowsBesideIt)
+{
+  // 19 deg off the axis at 95 cm the back flange, 20 cm further, sticks out ~20 px on the inner
+  // side and the plain rim fit follows both; the rim measured about the hole is the front one.
+  SpoolDetector detector;
+  detector.setCamera(kVga);
+  const DrawnSpool front = spoolAt(kVga, 0.95, 0.33, 0.06);
+  const DrawnSpool back = spoolAt(kVga, 1.15, 0.33, 0.06);
+  ASSERT_LT(back.x - back.flange_r, front.x - front.flange_r - 15.0);
+  const SpoolDetection d =
+      detector.detect(drawScene({640, 480}, {{back.x, back.y, back.flange_r, 0.0}, front}), PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  ASSERT_TRUE(d.hole_detected);
+  EXPECT_NEAR(d.flange.x, front.x, 1.0);
+  EXPECT_NEAR(d.flange.y, front.y, 1.0);
+  EXPECT_NEAR(d.flange.r_vertical, front.flange_r, 0.01 * front.flange_r);
+  EXPECT_NEAR(d.distance, range(0.95, 0.33, 0.06), 0.01 * 0.95);
+  EXPECT_NEAR(d.yaw, std::atan(0.33 / 0.95), 0.1 * M_PI / 180);
+}
+
 TEST(SpoolDetector, MchtRejectsAFlangeWhoseOnlyHoleIsOffCentreWhereChtAcceptsIt)
 {
   const DrawnSpool s = spoolAt(kVga, 0.8, 0.0, 0.06);
