@@ -87,9 +87,11 @@ public:
 
   /// The rim circle of `search`'s radius range centred on `centre` (a known axis: a hole's
   /// centre), with no centre fit: a fit of a one-sided arc would follow whatever else lies on
-  /// it. The radius takes the support histogram's rule of detect() and the mean distance of the
-  /// supporting edges; the score is their fraction of the rim that can show (in the image, not
-  /// over `back`'s disc). False without support.
+  /// it. The radius is the support histogram's best-scoring one (with a `back` flange; without,
+  /// detect()'s outer-ring rule: about a hole a larger ring is the back flange's crescent, not
+  /// the rim outside a rib), then the mean distance of the supporting edges; the score is their
+  /// fraction of the rim that can show (in the image, not over `back`'s disc). False without
+  /// support.
   bool fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
              const cv::Point2d& centre, const BackFlange& back, Circle& circle);
 

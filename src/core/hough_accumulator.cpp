@@ -274,6 +274,8 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
     return false;
   for (int i = bins - 2; i >= 1; --i)
   {
+    // Concentric rings: the outer one is the rim (ribs lie inside), unless a back flange is
+    // modelled, whose crescent would be the outer ring: then the best-scoring one.
     if (scores[static_cast<size_t>(i)] >= (back.growth > 0.0 ? 1.0 : 0.8) * best_score)
     {
       // Take the local maximum at or just inside the first strong radius from outside.
