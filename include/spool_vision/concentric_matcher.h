@@ -22,10 +22,9 @@ struct SpoolMatch
 class ConcentricMatcher
 {
 public:
-  /// `spool` gives the hole/flange ratio and the hub length; `camera` sizes the perspective
-  /// allowances (without one the window is concentric_tolerance alone).
-  ConcentricMatcher(const MatcherParams& params, const GeometryParams& spool,
-                    const std::optional<CameraIntrinsics>& camera = std::nullopt);
+  /// `spool` gives the hole/flange ratio and the hub length; `camera` turns the angular
+  /// tolerances into pixels (times fy) and sizes the perspective allowances.
+  ConcentricMatcher(const MatcherParams& params, const GeometryParams& spool, const CameraIntrinsics& camera);
 
   /// How far (px; width along x, height along y) a concentric hole's centre may lie from
   /// `flange`'s fitted centre. A flange seen at an angle phi projects to an ellipse whose centre
@@ -34,6 +33,12 @@ public:
   /// so phi reaches max_view_angle sideways (tens of pixels at 50 cm and 640x480) but only
   /// max_view_pitch up or down, which keeps the window small where it need not be large.
   cv::Size2d centreTolerance(const Circle& flange) const;
+
+  /// concentric_tolerance in px for this camera.
+  double tolerancePx() const
+  {
+    return tolerance_px_;
+  }
 
   /// The spool's back flange as this camera sees it (no back flange without a camera or in
   /// cht mode).
@@ -83,7 +88,8 @@ public:
 private:
   MatcherParams params_;
   double ratio_;         ///< hole / flange diameter
-  double focal_length_;  ///< px, 0 without a camera
+  double focal_length_;  ///< px (fy)
+  double tolerance_px_;  ///< concentric_tolerance in px
   BackFlange back_;
 };
 

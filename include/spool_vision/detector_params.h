@@ -60,9 +60,9 @@ enum class ReferenceMode
 struct PreprocessParams
 {
   FilterType filter = FilterType::kGaussian;
-  double filter_sigma = 1.5;    ///< px, Gaussian sigma (also the blur of unsharp masking)
-  int filter_kernel = 3;        ///< px, odd aperture of median / average
-  double unsharp_amount = 0.8;  ///< gain of the unsharp mask
+  double filter_sigma = 0.001875;  ///< rad, Gaussian sigma as a view angle (1.5 px at f = 800 px; also unsharp)
+  int filter_kernel = 3;           ///< px, odd aperture of median / average
+  double unsharp_amount = 0.8;     ///< gain of the unsharp mask
   BinarizeType binarize = BinarizeType::kNone;
   double binarize_threshold = 0.35;  ///< fraction of full scale (thesis: 0.35)
   MorphologyType morphology = MorphologyType::kNone;
@@ -78,7 +78,7 @@ struct HoughParams
   double sensitivity = 0.55;          ///< MATLAB-style: a flange needs (1 - sensitivity) of its rim
   double hole_sensitivity = 0.8;      ///< the same for the hole (a partly lit bore shows part of its rim)
   Polarity flange_polarity = Polarity::kDark;
-  Polarity hole_polarity = Polarity::kBright;
+  Polarity hole_polarity = Polarity::kAny;
   double flange_radius_min = 0.0;     ///< px, 0 = from distance_max
   double flange_radius_max = 0.0;     ///< px, 0 = from distance_min
   double hole_radius_min = 0.0;       ///< px, 0 = from distance_max
@@ -92,10 +92,10 @@ struct MatcherParams
 {
   MatchMode mode = MatchMode::kMcht;
   SpoolEvidence spool_evidence = SpoolEvidence::kHole;
-  double concentric_tolerance = 4.0;   ///< px, |hole centre - flange centre| per axis
-  double hole_ratio_tolerance = 0.35;  ///< relative deviation from hole/flange diameter ratio
-  double max_view_angle = 0.44;        ///< rad, widest view of the flange off its axis, sideways (~25 deg)
-  double max_view_pitch = 0.05;        ///< rad, the same up or down (~3 deg)
+  double concentric_tolerance = 0.005;  ///< rad, |hole centre - flange centre| per axis (4 px at f = 800 px)
+  double hole_ratio_tolerance = 0.35;   ///< relative deviation from hole/flange diameter ratio
+  double max_view_angle = 0.44;         ///< rad, widest view of the flange off its axis, sideways (~25 deg)
+  double max_view_pitch = 0.05;         ///< rad, the same up or down (~3 deg)
 };
 
 /// Spool, camera and alignment geometry (thesis §3.4).
@@ -115,7 +115,7 @@ struct GeometryParams
   double reference_y = 50.0;                      ///< px, fixed reference (thesis: 50 at 160x120)
   double puller_offset_x = 0.0;                   ///< m, puller axis from the camera, camera frame x (right)
   double puller_offset_y = 0.06;                  ///< m, puller axis from the camera, camera frame y (down)
-  double overlap_tolerance = 3.0;                 ///< px, Rule 3 window around the reference point
+  double overlap_tolerance = 0.00375;             ///< rad, Rule 3 window around the reference (3 px at f = 800)
   double aligned_max_yaw = 0.004363323129985824;  ///< rad (0.25 deg)
   double aligned_distance_min = 0.5;              ///< m
   double aligned_distance_max = 0.6;              ///< m

@@ -113,6 +113,8 @@ private:
     float votes;
   };
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
+  /// Votes on the side `sign` (centreSign) of each edge.
+  void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search, float sign);
   void findPeaks(const HoughSearch& search, int max_peaks);
   bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                      const Peak& peak, double slack, const BackFlange& back, Circle& circle);

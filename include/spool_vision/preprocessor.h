@@ -15,9 +15,10 @@ namespace spool_vision
 class Preprocessor
 {
 public:
-  explicit Preprocessor(const PreprocessParams& params = PreprocessParams());
+  /// `focal_length` (px, fy) turns the angular filter_sigma into pixels.
+  Preprocessor(const PreprocessParams& params, double focal_length);
 
-  void setParams(const PreprocessParams& params);
+  void setParams(const PreprocessParams& params, double focal_length);
   const PreprocessParams& params() const
   {
     return params_;

@@ -7,12 +7,14 @@
 
 namespace spool_vision
 {
-/// Which side of a circle's rim is darker: a dark disc on a brighter background (the flange)
-/// or a bright disc on a darker background (the lit bore).
+/// Which side of a circle's rim is darker: a dark disc on a brighter background (the flange),
+/// a bright disc on a darker background (a lit bore), or either, even changing along the rim
+/// (a bore's front rim: bright where the see-through lens touches it, dark elsewhere).
 enum class Polarity
 {
   kDark,
-  kBright
+  kBright,
+  kAny
 };
 
 /// A circle in pixel coordinates (OpenCV convention: (0,0) is the centre of the top-left pixel).

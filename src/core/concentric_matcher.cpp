@@ -7,18 +7,21 @@
 namespace spool_vision
 {
 ConcentricMatcher::ConcentricMatcher(const MatcherParams& params, const GeometryParams& spool,
-                                     const std::optional<CameraIntrinsics>& camera)
-  : params_(params), ratio_(spool.hole_diameter / spool.flange_diameter), focal_length_(camera ? camera->fy : 0.0)
+                                     const CameraIntrinsics& camera)
+  : params_(params)
+  , ratio_(spool.hole_diameter / spool.flange_diameter)
+  , focal_length_(camera.fy)
+  , tolerance_px_(params.concentric_tolerance * camera.fy)
 {
-  if (camera && params.mode == MatchMode::kMcht)
-    back_ = {{camera->cx, camera->cy}, spool.hub_length / (camera->fy * 0.5 * spool.flange_diameter)};
+  if (params.mode == MatchMode::kMcht)
+    back_ = {{camera.cx, camera.cy}, spool.hub_length / (camera.fy * 0.5 * spool.flange_diameter)};
 }
 
 cv::Size2d ConcentricMatcher::centreTolerance(const Circle& flange) const
 {
-  const double drift = focal_length_ > 0.0 ? flange.r_vertical * flange.r_vertical / focal_length_ : 0.0;
-  return {params_.concentric_tolerance + drift * std::tan(params_.max_view_angle),
-          params_.concentric_tolerance + drift * std::tan(params_.max_view_pitch)};
+  const double drift = flange.r_vertical * flange.r_vertical / focal_length_;
+  return {tolerance_px_ + drift * std::tan(params_.max_view_angle),
+          tolerance_px_ + drift * std::tan(params_.max_view_pitch)};
 }
 
 cv::Size2d ConcentricMatcher::silhouetteShift(const Circle& flange) const

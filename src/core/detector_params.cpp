@@ -7,7 +7,7 @@ namespace spool_vision
 {
 namespace
 {
-const char* const kPolarities[] = {"dark", "bright"};
+const char* const kPolarities[] = {"dark", "bright", "any"};
 
 std::string formatNumber(double v)
 {
@@ -76,8 +76,8 @@ std::vector<ParamSpec> buildSpecs()
       // Pre-processing (thesis §3.3.2-3.3.3)
       choice<FilterType>("filter", FIELD(preprocess.filter), {"gaussian", "median", "average", "unsharp", "none"},
                          "noise filter before the edge stage"),
-      number("filter_sigma", FIELD(preprocess.filter_sigma), 0.3, 20.0, "px",
-             "Gaussian sigma (gaussian; also the blur of unsharp)"),
+      number("filter_sigma", FIELD(preprocess.filter_sigma), 0.0003, 0.1, "rad",
+             "Gaussian sigma as a view angle, sigma_px = filter_sigma * fy (gaussian; also the blur of unsharp)"),
       number("filter_kernel", FIELD(preprocess.filter_kernel), 1, 31, "px",
              "odd aperture of median and average filters"),
       number("unsharp_amount", FIELD(preprocess.unsharp_amount), 0.0, 5.0, "", "gain of the unsharp mask"),
@@ -120,8 +120,8 @@ std::vector<ParamSpec> buildSpecs()
                         "mcht: hole must be concentric with the flange; cht: no constraint"),
       choice<SpoolEvidence>("spool_evidence", FIELD(matcher.spool_evidence), {"hole", "flange"},
                             "mcht: hole = a spool needs a concentric hole; flange = the flange alone counts (thesis)"),
-      number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 100.0, "px",
-             "hole centre within this of the flange centre on each axis (thesis: 2)"),
+      number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 0.1, "rad",
+             "hole centre within this view angle of the flange centre on each axis (thesis: 2 px at f = 200 px)"),
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",
              "relative deviation allowed from the hole/flange diameter ratio"),
       number("max_view_angle", FIELD(matcher.max_view_angle), 0.0, 1.2, "rad",
@@ -154,8 +154,8 @@ std::vector<ParamSpec> buildSpecs()
              "puller axis from the camera along camera x (right)"),
       number("puller_offset_y", FIELD(geometry.puller_offset_y), -2.0, 2.0, "m",
              "puller axis from the camera along camera y (down)"),
-      number("overlap_tolerance", FIELD(geometry.overlap_tolerance), 0.0, 100.0, "px",
-             "Rule 3: flange and hole centres within this of the reference (thesis: 2)"),
+      number("overlap_tolerance", FIELD(geometry.overlap_tolerance), 0.0, 0.1, "rad",
+             "Rule 3: flange and hole centres within this view angle of the reference (thesis: 2 px at f = 200 px)"),
       number("aligned_max_yaw", FIELD(geometry.aligned_max_yaw), 0.0, 0.5, "rad",
              "largest |yaw| reported as aligned (0.25 deg = 0.00436)"),
       number("aligned_distance_min", FIELD(geometry.aligned_distance_min), 0.0, 20.0, "m",

@@ -19,10 +19,29 @@ constexpr float kSobelFullScale = 4.0f * 255.0f;
 constexpr float kMinRadialAlignment = 0.866f;
 constexpr int kRimSamples = 64;
 
-// Sign that turns a dark-to-bright gradient into the direction from the rim to the centre.
+// Sign that turns a dark-to-bright gradient into the direction from the rim to the centre; 0 when
+// either direction may be (Polarity::kAny).
 float centreSign(Polarity polarity)
 {
-  return polarity == Polarity::kBright ? 1.0f : -1.0f;
+  switch (polarity)
+  {
+    case Polarity::kBright:
+      return 1.0f;
+    case Polarity::kDark:
+      return -1.0f;
+    case Polarity::kAny:
+      break;
+  }
+  return 0.0f;
+}
+
+// True when an edge at offset (vx, vy), |offset| = d, from a centre has its gradient along the
+// radius, pointing the way `sign` (centreSign()) wants: away from the centre for a dark disc.
+template <typename T>
+bool radial(T vx, T vy, T d, const EdgePoint& e, float sign)
+{
+  const T along = vx * e.dx + vy * e.dy;
+  return (sign == 0.0f ? std::abs(along) : -sign * along) >= kMinRadialAlignment * d;
 }
 }  // namespace
 
@@ -134,7 +153,19 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::vector<Ed
 
 void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSearch& search)
 {
-  const float sign = centreSign(search.polarity);
+  // A rim of either polarity: every edge votes on both sides.
+  const float polarity_sign = centreSign(search.polarity);
+  if (polarity_sign == 0.0f)
+  {
+    for (const float sign : {1.0f, -1.0f})
+      vote(edges, search, sign);
+    return;
+  }
+  vote(edges, search, polarity_sign);
+}
+
+void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSearch& search, float sign)
+{
   const float cell = static_cast<float>(cell_);
   const float inv_cell = 1.0f / cell;
   const int cols = votes_.cols;
@@ -240,8 +271,7 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
     if (d2 < lo2 || d2 > hi2)
       continue;
     const float d = std::sqrt(d2);
-    // The gradient must point along the radius, away from the centre for a dark disc.
-    if (-sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
+    if (!radial(vx, vy, d, e, sign))
       continue;
     histogram_[static_cast<size_t>(d - lo + 0.5)] += 1.0f;
   }
@@ -342,7 +372,7 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
       if (std::abs(rho - 1.0) * mean_r > band)
         continue;
       const double d = std::sqrt(vx * vx + vy * vy);
-      if (-sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
+      if (!radial(vx, vy, d, e, sign))
         continue;
       const double u = vx * scale;
       const double v = vy * scale;
@@ -435,7 +465,7 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
       const double vx = e.x - centre.x;
       const double vy = e.y - centre.y;
       const double d = std::sqrt(vx * vx + vy * vy);
-      if (std::abs(d - r) > band || -sign * (vx * e.dx + vy * e.dy) < kMinRadialAlignment * d)
+      if (std::abs(d - r) > band || !radial(vx, vy, d, e, sign))
         continue;
       sum += d;
       ++count;

@@ -30,22 +30,22 @@ cv::Mat diskElement(int radius)
 }
 }  // namespace
 
-Preprocessor::Preprocessor(const PreprocessParams& params)
+Preprocessor::Preprocessor(const PreprocessParams& params, double focal_length)
 {
-  setParams(params);
+  setParams(params, focal_length);
 }
 
-void Preprocessor::setParams(const PreprocessParams& params)
+void Preprocessor::setParams(const PreprocessParams& params, double focal_length)
 {
   params_ = params;
   structuring_element_ = diskElement(params_.morphology_radius);
   // Gaussian taps out to 3 sigma, normalised.
-  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * params_.filter_sigma)));
+  const double sigma = params_.filter_sigma * focal_length;
+  const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
   kernel_.resize(static_cast<size_t>(2 * radius + 1));
   float sum = 0.0f;
   for (int i = -radius; i <= radius; ++i)
-    sum += kernel_[static_cast<size_t>(i + radius)] =
-        static_cast<float>(std::exp(-0.5 * i * i / (params_.filter_sigma * params_.filter_sigma)));
+    sum += kernel_[static_cast<size_t>(i + radius)] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
   for (float& w : kernel_)
     w /= sum;
 }

@@ -8,7 +8,10 @@
 namespace spool_vision
 {
 SpoolDetector::SpoolDetector(const DetectorParams& params)
-  : params_(params), preprocessor_(params.preprocess), matcher_(params.matcher, params.geometry)
+  : params_(params)
+  // Both are set up again for the camera of the first frame (geometryFor()).
+  , preprocessor_(params.preprocess, CameraIntrinsics::thesisDefault(640, 480).fy)
+  , matcher_(params.matcher, params.geometry, CameraIntrinsics::thesisDefault(640, 480))
 {
   validateParams(params);
 }
@@ -17,8 +20,6 @@ void SpoolDetector::setParams(const DetectorParams& params)
 {
   validateParams(params);
   params_ = params;
-  preprocessor_.setParams(params.preprocess);
-  matcher_ = ConcentricMatcher(params.matcher, params.geometry);
   geometry_.reset();
 }
 
@@ -46,6 +47,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
                       : *camera_;
   geometry_.emplace(params_.geometry, camera);
   matcher_ = ConcentricMatcher(params_.matcher, params_.geometry, camera);
+  preprocessor_.setParams(params_.preprocess, camera.fy);
   return *geometry_;
 }
 
@@ -196,7 +198,7 @@ std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const 
     Circle kept = flange;
     if (const auto front = frontAbout(*hole); front && front->score > flange.score)
     {
-      const double tol = params_.matcher.concentric_tolerance;
+      const double tol = matcher_.tolerancePx();
       if (std::abs(hole->x - flange.x) > tol || std::abs(hole->y - flange.y) > tol)
         kept = *front;
       kept.score = front->score;

@@ -80,7 +80,7 @@ void SpoolGeometry::measure(SpoolDetection& d) const
   d.yaw = yaw(d.hole_detected ? d.hole.x : d.flange.x, d.reference.x);
   d.lateral_offset = d.distance * std::tan(d.yaw);
 
-  const double tol = params_.overlap_tolerance;
+  const double tol = params_.overlap_tolerance * camera_.fy;
   auto on_reference = [&](const Circle& c)
   { return std::abs(c.x - d.reference.x) <= tol && std::abs(c.y - d.reference.y) <= tol; };
   d.overlapped = d.hole_detected && on_reference(d.flange) && on_reference(d.hole);

@@ -13,8 +13,9 @@ using spool_vision::MatchMode;
 namespace
 {
 constexpr double kRatio = 3.6 / 35.0;
-const GeometryParams kSpool;                                              // 35 cm flange, 3.6 cm hole, 20 cm hub
-const CameraIntrinsics kVga = CameraIntrinsics::thesisDefault(640, 480);  // f = 800 px, centre (319.5, 239.5)
+const GeometryParams kSpool;                                                 // 35 cm flange, 3.6 cm hole, 20 cm hub
+const CameraIntrinsics kVga = CameraIntrinsics::thesisDefault(640, 480);     // f = 800 px, centre (319.5, 239.5)
+const CameraIntrinsics kThesis = CameraIntrinsics::thesisDefault(160, 120);  // f = 200 px
 Circle circle(double x, double y, double r, double score = 0.5)
 {
   Circle c;
@@ -24,11 +25,13 @@ Circle circle(double x, double y, double r, double score = 0.5)
   c.score = score;
   return c;
 }
-MatcherParams params(MatchMode mode, double tol = 2.0)
+// `tol` px at the camera's fy; the perspective widening off unless a test asks for it.
+MatcherParams params(MatchMode mode, double tol = 2.0, const CameraIntrinsics& camera = kThesis)
 {
   MatcherParams p;
   p.mode = mode;
-  p.concentric_tolerance = tol;
+  p.concentric_tolerance = tol / camera.fy;
+  p.max_view_angle = p.max_view_pitch = 0.0;
   p.hole_ratio_tolerance = 0.3;
   return p;
 }
@@ -36,14 +39,14 @@ MatcherParams params(MatchMode mode, double tol = 2.0)
 
 TEST(ConcentricMatcher, AcceptsAConcentricHoleOfTheRightSize)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool, kThesis);
   const Circle flange = circle(80, 60, 50);
   EXPECT_TRUE(m.accepts(flange, circle(81.5, 58.5, 50 * kRatio)));
 }
 
 TEST(ConcentricMatcher, RejectsAnOffCentreHole)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool, kThesis);
   const Circle flange = circle(80, 60, 50);
   EXPECT_FALSE(m.accepts(flange, circle(82.5, 60, 50 * kRatio)));
   EXPECT_FALSE(m.accepts(flange, circle(80, 57.4, 50 * kRatio)));
@@ -51,7 +54,7 @@ TEST(ConcentricMatcher, RejectsAnOffCentreHole)
 
 TEST(ConcentricMatcher, RejectsAWrongSizeRing)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool, kThesis);
   const Circle flange = circle(80, 60, 50);
   EXPECT_FALSE(m.accepts(flange, circle(80, 60, 50 * kRatio * 1.5)));  // a rib, not the bore
   EXPECT_FALSE(m.accepts(flange, circle(80, 60, 50 * kRatio * 0.5)));
@@ -59,7 +62,7 @@ TEST(ConcentricMatcher, RejectsAWrongSizeRing)
 
 TEST(ConcentricMatcher, ChtModeHasNoConstraintAndTakesTheStrongest)
 {
-  const ConcentricMatcher m(params(MatchMode::kCht), kSpool);
+  const ConcentricMatcher m(params(MatchMode::kCht), kSpool, kThesis);
   const Circle flange = circle(80, 60, 50);
   const Circle far_strong = circle(20, 20, 9, 0.9);
   const Circle concentric_weak = circle(80, 60, 5, 0.4);
@@ -71,7 +74,7 @@ TEST(ConcentricMatcher, ChtModeHasNoConstraintAndTakesTheStrongest)
 
 TEST(ConcentricMatcher, MchtTakesTheNearestPassingHole)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool);
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool, kThesis);
   const Circle flange = circle(80, 60, 50);
   const auto hole =
       m.matchHole(flange, {circle(81.8, 60, 5.1, 0.9), circle(80.2, 60.1, 5.2, 0.3), circle(20, 20, 5.1, 1.0)});
@@ -96,8 +99,7 @@ TEST(ConcentricMatcher, CandidatesAreTriedNearestTheReferenceFirst)
 
 TEST(ConcentricMatcher, HoleWindowWidensOutwardForTheBackFlange)
 {
-  MatcherParams p = params(MatchMode::kMcht, 4.0);
-  p.max_view_angle = p.max_view_pitch = 0.0;
+  const MatcherParams p = params(MatchMode::kMcht, 4.0, kVga);
   const ConcentricMatcher m(p, kSpool, kVga);
   // On the optical axis the back flange hides behind the front one: no widening.
   const Circle on_axis = circle(kVga.cx, kVga.cy, 150);
@@ -115,15 +117,20 @@ TEST(ConcentricMatcher, HoleWindowWidensOutwardForTheBackFlange)
   EXPECT_NEAR(search.center_window.x + search.center_window.width - right.x, 4.0 + 230 * 0.2143, 0.1);
   // The hole of a front flange up to 1.214 times the fitted disc is searched for.
   EXPECT_NEAR(search.r_max, kRatio * 150 * 1.3 * m.backToFront(right), 1e-9);
-  // Without a camera nothing is known of the back flange.
-  const ConcentricMatcher no_camera(p, kSpool);
-  EXPECT_DOUBLE_EQ(no_camera.silhouetteShift(right).width, 0.0);
-  EXPECT_DOUBLE_EQ(no_camera.backToFront(right), 1.0);
+  // Without a hub length (the thesis) nothing is known of the back flange.
+  GeometryParams flat = kSpool;
+  flat.hub_length = 0.0;
+  const ConcentricMatcher no_hub(p, flat, kVga);
+  EXPECT_DOUBLE_EQ(no_hub.silhouetteShift(right).width, 0.0);
+  EXPECT_DOUBLE_EQ(no_hub.backToFront(right), 1.0);
 }
 
 TEST(ConcentricMatcher, ARimAboutTheHoleMustExplainTheFitThatLedToIt)
 {
-  const ConcentricMatcher m(params(MatchMode::kMcht, 4.0), kSpool, kVga);
+  MatcherParams p = params(MatchMode::kMcht, 4.0, kVga);
+  p.max_view_angle = 0.44;
+  p.max_view_pitch = 0.05;
+  const ConcentricMatcher m(p, kSpool, kVga);
   const Circle front = circle(kVga.cx + 270, kVga.cy + 20, 150);
   const double k = m.backFlange().scale(150);
   const Circle back = circle(kVga.cx + k * 270, kVga.cy + k * 20, k * 150);

@@ -57,7 +57,7 @@ TEST(ConfigIo, SeedYamlIsTheThesisPipeline)
   loadParamsYaml(kConfigDir + "/seed.yaml", p);
   EXPECT_EQ(p.preprocess.binarize, spool_vision::BinarizeType::kFixed);
   EXPECT_DOUBLE_EQ(p.preprocess.binarize_threshold, 0.35);
-  EXPECT_DOUBLE_EQ(p.preprocess.filter_sigma, 2.0);
+  EXPECT_DOUBLE_EQ(p.preprocess.filter_sigma, 0.01);
   EXPECT_EQ(p.preprocess.morphology, spool_vision::MorphologyType::kOpen);
   EXPECT_EQ(p.preprocess.min_component_area, 30);
   EXPECT_DOUBLE_EQ(p.hough.sensitivity, 0.89);
@@ -65,7 +65,7 @@ TEST(ConfigIo, SeedYamlIsTheThesisPipeline)
   EXPECT_DOUBLE_EQ(p.hough.flange_radius_max, 65);
   EXPECT_DOUBLE_EQ(p.hough.hole_radius_min, 3);
   EXPECT_DOUBLE_EQ(p.hough.hole_radius_max, 15);
-  EXPECT_DOUBLE_EQ(p.matcher.concentric_tolerance, 2);
+  EXPECT_DOUBLE_EQ(p.matcher.concentric_tolerance, 0.01);
   EXPECT_EQ(p.geometry.yaw_mode, spool_vision::YawMode::kLinearFov);
   EXPECT_EQ(p.geometry.reference_mode, spool_vision::ReferenceMode::kFixed);
   EXPECT_DOUBLE_EQ(p.geometry.reference_x, 80);

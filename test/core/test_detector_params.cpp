@@ -43,12 +43,12 @@ TEST(DetectorParams, DefaultsAreValidAndKeysUnique)
 TEST(DetectorParams, SetsEveryKind)
 {
   DetectorParams p;
-  setParam(p, "filter_sigma", 2.5);
+  setParam(p, "filter_sigma", 0.0025);
   setParam(p, "filter_kernel", 5);
   setParam(p, "morphology_radius", 3.0);  // an integral double is fine for an int key
   setParam(p, "binarize", std::string("otsu"));
   setParam(p, "hole_polarity", std::string("dark"));
-  EXPECT_DOUBLE_EQ(p.preprocess.filter_sigma, 2.5);
+  EXPECT_DOUBLE_EQ(p.preprocess.filter_sigma, 0.0025);
   EXPECT_EQ(p.preprocess.filter_kernel, 5);
   EXPECT_EQ(p.preprocess.morphology_radius, 3);
   EXPECT_EQ(p.preprocess.binarize, spool_vision::BinarizeType::kOtsu);

@@ -11,6 +11,11 @@ using spool_vision::PixelFormat;
 using spool_vision::Preprocessor;
 using spool_vision::PreprocessParams;
 
+namespace
+{
+constexpr double kFocal = 200.0;  // px: filter_sigma is a view angle, sigma_px = filter_sigma * fy
+}  // namespace
+
 TEST(Preprocessor, GrayFromEveryPixelFormat)
 {
   cv::Mat gray;
@@ -73,16 +78,16 @@ TEST(Preprocessor, SmoothingFiltersReduceNoise)
   {
     PreprocessParams p;
     p.filter = f;
-    p.filter_sigma = 2.0;
+    p.filter_sigma = 2.0 / kFocal;
     p.filter_kernel = 5;
-    Preprocessor pre(p);
+    Preprocessor pre(p, kFocal);
     cv::Mat out;
     pre.filter(in, out);
     EXPECT_LT(noiseStddev(out), 0.5 * before) << static_cast<int>(f);
   }
   PreprocessParams none;
   none.filter = FilterType::kNone;
-  Preprocessor pre(none);
+  Preprocessor pre(none, kFocal);
   cv::Mat out;
   pre.filter(in, out);
   EXPECT_EQ(cv::norm(in, out, cv::NORM_INF), 0.0);
@@ -94,9 +99,9 @@ TEST(Preprocessor, UnsharpIncreasesEdgeContrast)
   step(cv::Rect(8, 0, 8, 16)).setTo(150);
   PreprocessParams p;
   p.filter = FilterType::kUnsharp;
-  p.filter_sigma = 1.0;
+  p.filter_sigma = 1.0 / kFocal;
   p.unsharp_amount = 1.0;
-  Preprocessor pre(p);
+  Preprocessor pre(p, kFocal);
   cv::Mat out;
   pre.filter(step, out);
   EXPECT_LT(out.at<uchar>(8, 7), 100);  // undershoot on the dark side
@@ -109,7 +114,7 @@ TEST(Preprocessor, FixedThresholdIsAFractionOfFullScale)
   PreprocessParams p;
   p.binarize = BinarizeType::kFixed;
   p.binarize_threshold = 0.35;  // 89.25 of 255
-  Preprocessor pre(p);
+  Preprocessor pre(p, kFocal);
   cv::Mat in(1, 2, CV_8UC1);
   in.at<uchar>(0, 0) = 89;
   in.at<uchar>(0, 1) = 90;
@@ -125,7 +130,7 @@ TEST(Preprocessor, OtsuSplitsABimodalImage)
   in(cv::Rect(0, 0, 5, 10)).setTo(200);
   PreprocessParams p;
   p.binarize = BinarizeType::kOtsu;
-  Preprocessor pre(p);
+  Preprocessor pre(p, kFocal);
   cv::Mat out;
   pre.binarize(in, out);
   EXPECT_EQ(out.at<uchar>(5, 2), 255);
@@ -141,16 +146,16 @@ TEST(Preprocessor, MorphologyOpenRemovesSpecksKeepsDiscs)
   p.morphology_radius = 2;
   cv::Mat out;
   p.morphology = MorphologyType::kOpen;
-  Preprocessor(p).morphology(bin, out);
+  Preprocessor(p, kFocal).morphology(bin, out);
   EXPECT_EQ(out.at<uchar>(3, 3), 0);
   EXPECT_EQ(out.at<uchar>(20, 20), 255);
   EXPECT_EQ(out.at<uchar>(20, 27), 255);
 
   p.morphology = MorphologyType::kDilate;
-  Preprocessor(p).morphology(bin, out);
+  Preprocessor(p, kFocal).morphology(bin, out);
   EXPECT_EQ(out.at<uchar>(20, 29), 255);  // grown by the radius
   p.morphology = MorphologyType::kErode;
-  Preprocessor(p).morphology(bin, out);
+  Preprocessor(p, kFocal).morphology(bin, out);
   EXPECT_EQ(out.at<uchar>(20, 27), 0);  // shrunk by the radius
 }
 
@@ -161,7 +166,7 @@ TEST(Preprocessor, AreaOpeningDropsSmallComponents)
   bin(cv::Rect(20, 20, 6, 5)).setTo(255);  // 30 px
   PreprocessParams p;
   p.min_component_area = 30;
-  Preprocessor pre(p);
+  Preprocessor pre(p, kFocal);
   cv::Mat out;
   pre.areaOpening(bin, out);
   EXPECT_EQ(out.at<uchar>(4, 4), 0);
@@ -173,11 +178,11 @@ TEST(Preprocessor, ThesisChainProducesABinaryImage)
 {
   PreprocessParams p;
   p.filter = FilterType::kGaussian;
-  p.filter_sigma = 2.0;
+  p.filter_sigma = 2.0 / kFocal;
   p.binarize = BinarizeType::kFixed;
   p.morphology = MorphologyType::kOpen;
   p.min_component_area = 30;
-  Preprocessor pre(p);
+  Preprocessor pre(p, kFocal);
   cv::Mat out;
   pre.process(noisy(), PixelFormat::kMono8, out);
   ASSERT_EQ(out.type(), CV_8UC1);

@@ -110,7 +110,7 @@ SpoolDetection detectionAt(double u, double v, double depth)
 TEST(SpoolGeometry, AlignedOnlyInTheWindowAndOnTheReference)
 {
   GeometryParams p;
-  p.overlap_tolerance = 2.0;
+  p.overlap_tolerance = 2.0 / kThesis.fy;  // 2 px
   const SpoolGeometry g(p, kThesis);
   const double v55 = 59.5 + 200 * 0.06 / 0.55;
 
@@ -141,8 +141,8 @@ TEST(SpoolGeometry, AlignedOnlyInTheWindowAndOnTheReference)
 TEST(SpoolGeometry, YawBeyondTheLimitIsNotAligned)
 {
   GeometryParams p;
-  p.overlap_tolerance = 2.0;
-  p.aligned_max_yaw = 0.1 * kDeg;  // tighter than the 1.5 px overlap offset below (0.43 deg)
+  p.overlap_tolerance = 2.0 / kThesis.fy;  // 2 px
+  p.aligned_max_yaw = 0.1 * kDeg;          // tighter than the 1.5 px overlap offset below (0.43 deg)
   const SpoolGeometry g(p, kThesis);
   SpoolDetection d = detectionAt(81.0, 59.5 + 200 * 0.06 / 0.55, 0.55);
   g.measure(d);
