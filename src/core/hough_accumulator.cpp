@@ -488,7 +488,7 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
     return;
 
   // Cells coarse enough to keep the accumulator small for big radii, fine for small ones.
-  cell_ = std::clamp(search.r_min / 16.0, 1.0, 8.0);
+  cell_ = std::clamp(search.r_min / 16.0, 0.25, 8.0);
   cv::Rect2d window = search.center_window;
   if (window.empty())
   {
@@ -510,10 +510,21 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   {
     Circle circle;
     // The centre is known to about a cell; the radius histogram must tolerate that much.
-    if (!measureRadius(edges, image_size, search, peak, cell_ + 1.0, {}, circle) ||
-        !refine(edges, image_size, search, circle) || circle.score < search.min_score)
+    if (!measureRadius(edges, image_size, search, peak, cell_ + 1.0, {}, circle))
       continue;
-    if (!search.center_window.empty() && !search.center_window.contains(cv::Point2d(circle.x, circle.y)))
+    const Circle measured = circle;
+    const bool windowed = !search.center_window.empty();
+    if (!refine(edges, image_size, search, circle) ||
+        (windowed && !search.center_window.contains(cv::Point2d(circle.x, circle.y))))
+    {
+      // A fit can slide off a faint rim onto a stronger edge beside it (a small bore's front rim
+      // onto the see-through lens inside it). Where the window already pins the centre (a hole
+      // concentric with its flange), the measured circle stands in; elsewhere the peak is dropped.
+      if (!windowed)
+        continue;
+      circle = measured;
+    }
+    if (circle.score < search.min_score)
       continue;
     // Two peaks can refine onto the same rim; keep the first (stronger) one.
     const bool duplicate = std::any_of(circles.begin(), circles.end(),
