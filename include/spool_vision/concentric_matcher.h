@@ -71,8 +71,11 @@ public:
   /// not accept()ed shows where to measure the front rim again. False when nothing can pass.
   bool narrowHoleSearch(const Circle& flange, cv::Size image_size, HoughSearch& search) const;
 
-  /// True when `hole` may belong to `flange`: in mcht mode its centre lies within
-  /// centreTolerance() and its radius fits the known ratio; in cht mode always.
+  /// The least fraction of a hole's rim inside the image for accepts().
+  static constexpr double kMinHoleVisibleFraction = 0.9;
+
+  /// True when `hole` may belong to `flange`: in mcht mode it is (nearly) whole in the image, its
+  /// centre lies within centreTolerance() and its radius fits the known ratio; in cht mode always.
   bool accepts(const Circle& flange, const Circle& hole) const;
 
   /// The hole for `flange` among `holes`, if any passes: in mcht mode the one nearest the

@@ -72,6 +72,10 @@ bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const
 {
   if (params_.mode == MatchMode::kCht)
     return true;
+  // The bore's front rim must be (nearly) whole in view: a spool whose axis is at the frame
+  // border is not in front of the robot, and half a small "rim" at the border is any edge.
+  if (hole.visible_fraction < kMinHoleVisibleFraction)
+    return false;
   const cv::Size2d tol = centreTolerance(flange);
   if (std::abs(hole.x - flange.x) > tol.width || std::abs(hole.y - flange.y) > tol.height)
     return false;

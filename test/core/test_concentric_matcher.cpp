@@ -23,6 +23,7 @@ Circle circle(double x, double y, double r, double score = 0.5)
   c.y = y;
   c.r = c.r_vertical = r;
   c.score = score;
+  c.visible_fraction = 1.0;
   return c;
 }
 // `tol` px at the camera's fy; the perspective widening off unless a test asks for it.
@@ -50,6 +51,17 @@ TEST(ConcentricMatcher, RejectsAnOffCentreHole)
   const Circle flange = circle(80, 60, 50);
   EXPECT_FALSE(m.accepts(flange, circle(82.5, 60, 50 * kRatio)));
   EXPECT_FALSE(m.accepts(flange, circle(80, 57.4, 50 * kRatio)));
+}
+
+TEST(ConcentricMatcher, RejectsAHoleCutByTheImageBorder)
+{
+  const ConcentricMatcher m(params(MatchMode::kMcht), kSpool, kThesis);
+  const Circle flange = circle(80, 60, 50);
+  Circle hole = circle(80, 60, 50 * kRatio);
+  hole.visible_fraction = 0.8;
+  EXPECT_FALSE(m.accepts(flange, hole));
+  hole.visible_fraction = 0.95;
+  EXPECT_TRUE(m.accepts(flange, hole));
 }
 
 TEST(ConcentricMatcher, RejectsAWrongSizeRing)
