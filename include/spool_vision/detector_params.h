@@ -85,6 +85,7 @@ struct HoughParams
   double hole_radius_max = 0.0;       ///< px, 0 = from distance_min
   double min_visible_fraction = 0.3;  ///< ignore circles with less of their rim in the frame
   int max_candidates = 6;             ///< flange candidates kept per frame
+  double edge_budget = 6.0;           ///< most edges kept per frame, per px of width + height
 };
 
 /// Concentric matcher (thesis Rule 2, Eq. 3.1).

@@ -23,16 +23,20 @@ struct EdgePoint
 class EdgeDetector
 {
 public:
-  /// `threshold` is the minimum gradient magnitude as a fraction of full scale (0..1).
-  void detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges);
+  /// `threshold` is the minimum gradient magnitude as a fraction of full scale (0..1). At most
+  /// `max_edges` are kept, the strongest: the work of every later stage grows with the edge
+  /// count, and a frame of clutter or noise must not take many times a normal frame's time.
+  void detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges);
 
   /// The two halves of detect(): gradients of the whole frame once, then edges of any region
   /// at any threshold (the faint hole rim is extracted at a lower threshold in its small window).
   void computeGradients(const cv::Mat& gray8);
-  void extract(double threshold, const cv::Rect& roi, std::vector<EdgePoint>& edges) const;
+  void extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges);
 
 private:
   cv::Mat gx_, gy_, mag_;
+  std::vector<int> strengths_;  ///< squared gradient magnitude of each extracted edge
+  std::vector<int> order_;      ///< scratch for the budget's selection
 };
 
 /// Where a spool's back flange appears behind a front flange rim (x, y, r) seen through a
@@ -58,6 +62,23 @@ struct BackFlange
     const double by = principal_point.y + k * (y - principal_point.y);
     return growth > 0.0 && (px - bx) * (px - bx) + (py - by) * (py - by) < k * k * r * r;
   }
+};
+
+/// Sums of the rim points' moments for the two algebraic least-squares fits of a rim: a circle
+/// (Kasa: u^2 + v^2 + a u + b v + c = 0) and an axis-aligned ellipse (a circle seen from a
+/// yawed camera: A u^2 + B v^2 + C u + D v = 1). Points in any scaled frame; results in it.
+struct RimMoments
+{
+  double su = 0, sv = 0, suu = 0, suv = 0, svv = 0;
+  double suuu = 0, suuv = 0, suvv = 0, svvv = 0, suuuu = 0, suuvv = 0, svvvv = 0;
+  unsigned octants = 0;  ///< bit i: some point in octant i
+  int count = 0;
+
+  void add(double u, double v);
+  /// False when the points fit no circle.
+  bool fitCircle(double& x, double& y, double& r) const;
+  /// False without points on both sides and in at least 5 octants, or when no ellipse fits.
+  bool fitEllipse(double& x, double& y, double& semi_x, double& semi_y) const;
 };
 
 /// Search settings for one radius range.
@@ -127,6 +148,7 @@ private:
   std::vector<Peak> peaks_;
   std::vector<float> histogram_;
   std::vector<double> scores_;
+  std::vector<EdgePoint> near_;  ///< refine(): the edges near the circle being fitted
 };
 
 /// Fraction of a circle's circumference that can show: inside an image of the given size and,

@@ -60,6 +60,8 @@ public:
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
+  /// The most edges kept from a region of `size` (edge_budget).
+  std::size_t edgeBudget(cv::Size size) const;
   /// Picks the target among the flange candidates and finds its hole (thesis Rule 2).
   void selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min, double hole_max,
                     SpoolDetection& result);

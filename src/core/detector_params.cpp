@@ -115,6 +115,8 @@ std::vector<ParamSpec> buildSpecs()
       number("min_visible_fraction", FIELD(hough.min_visible_fraction), 0.05, 1.0, "",
              "ignore circles with less of their rim inside the image"),
       number("max_candidates", FIELD(hough.max_candidates), 1, 64, "", "flange candidates examined per frame"),
+      number("edge_budget", FIELD(hough.edge_budget), 0.5, 1000.0, "per px of width + height",
+             "most edges kept per frame (the strongest), which bounds the time of a cluttered frame"),
       // Concentric matcher (thesis Eq. 3.1, Rule 2)
       choice<MatchMode>("mode", FIELD(matcher.mode), {"mcht", "cht"},
                         "mcht: hole must be concentric with the flange; cht: no constraint"),

@@ -74,10 +74,72 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size, con
   return static_cast<double>(inside) / kRimSamples;
 }
 
-void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::vector<EdgePoint>& edges)
+void RimMoments::add(double u, double v)
+{
+  const double uu = u * u;
+  const double vv = v * v;
+  su += u;
+  sv += v;
+  suu += uu;
+  suv += u * v;
+  svv += vv;
+  suuu += uu * u;
+  suuv += uu * v;
+  suvv += u * vv;
+  svvv += vv * v;
+  suuuu += uu * uu;
+  suuvv += uu * vv;
+  svvvv += vv * vv;
+  // The octant from signs and the diagonal: the same eight sectors as atan2 (which cost 7% of a
+  // frame here), numbered differently.
+  octants |= 1u << ((v < 0.0 ? 4u : 0u) | (u < 0.0 ? 2u : 0u) | (std::abs(u) < std::abs(v) ? 1u : 0u));
+  ++count;
+}
+
+bool RimMoments::fitCircle(double& x, double& y, double& r) const
+{
+  // Kasa fit, u^2 + v^2 + a u + b v + c = 0, from its normal equations.
+  Eigen::Matrix3d n;
+  n << suu, suv, su, suv, svv, sv, su, sv, count;
+  const Eigen::Vector3d rhs(-(suuu + suvv), -(suuv + svvv), -(suu + svv));
+  const Eigen::Vector3d abc = n.ldlt().solve(rhs);
+  x = -abc(0) / 2.0;
+  y = -abc(1) / 2.0;
+  const double rr = x * x + y * y - abc(2);
+  if (!(rr > 0.0))
+    return false;
+  r = std::sqrt(rr);
+  return true;
+}
+
+bool RimMoments::fitEllipse(double& x, double& y, double& semi_x, double& semi_y) const
+{
+  // It needs the rim on the left and the right of the centre and most octants. Octants within
+  // 45 degrees of the horizontal axis: u < 0 is 2 and 6, u >= 0 is 0 and 4.
+  const bool left = octants & ((1u << 2) | (1u << 6));
+  const bool right = octants & ((1u << 0) | (1u << 4));
+  if (!left || !right || std::bitset<8>(octants).count() < 5)
+    return false;
+  // A u^2 + B v^2 + C u + D v = 1, from its normal equations.
+  Eigen::Matrix4d n;
+  n << suuuu, suuvv, suuu, suuv, suuvv, svvvv, suvv, svvv, suuu, suvv, suu, suv, suuv, svvv, suv, svv;
+  const Eigen::Vector4d sol = n.ldlt().solve(Eigen::Vector4d(suu, svv, su, sv));
+  if (!(sol(0) > 0.0 && sol(1) > 0.0))
+    return false;
+  x = -sol(2) / (2.0 * sol(0));
+  y = -sol(3) / (2.0 * sol(1));
+  const double k = 1.0 + sol(0) * x * x + sol(1) * y * y;
+  if (!(k > 0.0))
+    return false;
+  semi_x = std::sqrt(k / sol(0));
+  semi_y = std::sqrt(k / sol(1));
+  return true;
+}
+
+void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges)
 {
   computeGradients(gray8);
-  extract(threshold, cv::Rect(0, 0, gray8.cols, gray8.rows), edges);
+  extract(threshold, cv::Rect(0, 0, gray8.cols, gray8.rows), max_edges, edges);
 }
 
 void EdgeDetector::computeGradients(const cv::Mat& gray8)
@@ -112,9 +174,10 @@ void EdgeDetector::computeGradients(const cv::Mat& gray8)
   }
 }
 
-void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::vector<EdgePoint>& edges) const
+void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges)
 {
   edges.clear();
+  strengths_.clear();
   // The outermost rows and columns have no neighbour on one side for the suppression.
   const cv::Rect area = roi & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
@@ -147,8 +210,33 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::vector<Ed
       const float denom = before - 2.0f * c + after;
       const float sub = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
       edges.push_back({x + sub * sx, y + sub * sy, dx, dy});
+      strengths_.push_back(c2);
     }
   }
+  if (edges.size() <= max_edges)
+    return;
+  // Over budget: keep the strongest max_edges, in their row-major order (ties at the cut are
+  // taken first come).
+  order_.assign(strengths_.begin(), strengths_.end());
+  const auto cut = order_.end() - static_cast<std::ptrdiff_t>(max_edges);
+  std::nth_element(order_.begin(), cut, order_.end());
+  const int cutoff = *cut;
+  std::size_t above = 0;
+  for (const int s : strengths_)
+    above += s > cutoff ? 1 : 0;
+  std::size_t ties = max_edges - above;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < edges.size(); ++i)
+  {
+    const bool keep = strengths_[i] > cutoff || (strengths_[i] == cutoff && ties > 0);
+    if (!keep)
+      continue;
+    ties -= strengths_[i] == cutoff ? 1 : 0;
+    edges[kept] = edges[i];
+    strengths_[kept++] = strengths_[i];
+  }
+  edges.resize(kept);
+  strengths_.resize(kept);
 }
 
 void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSearch& search)
@@ -339,93 +427,79 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   double semi_y = circle.r;
   double r_fit = circle.r;
   int count = 0;
+  // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught whole;
+  // then it narrows onto the fitted model.
+  static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
+  // Only edges near the starting circle can join the fit (a fit that moves further has lost its
+  // rim): gathered once, so the passes below do not each walk every edge of the frame.
+  const double reach = 2.0 * std::max(1.5, kBands[0] * circle.r) + 2.0;
+  const double inner2 = std::pow(std::max(0.0, circle.r - reach), 2);
+  const double outer2 = std::pow(circle.r + reach, 2);
+  near_.clear();
+  for (const EdgePoint& e : edges)
+  {
+    const double vy = e.y - circle.y;
+    if (vy * vy > outer2)
+      continue;
+    const double vx = e.x - circle.x;
+    const double d2 = vx * vx + vy * vy;
+    if (d2 >= inner2 && d2 <= outer2)
+      near_.push_back(e);
+  }
   // Four fitting passes, then one that only counts the support of the final model: a fit to a
   // short arc can move far, and the score must describe the circle returned, not the last input.
   constexpr int kFits = 4;
   for (int iteration = 0; iteration <= kFits; ++iteration)
   {
-    // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught
-    // whole; then it narrows onto the fitted model.
-    static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
     const double band = std::max(1.5, kBands[iteration] * r_fit);
     const double mean_r = std::sqrt(semi_x * semi_y);
     const double scale = 1.0 / mean_r;
 
-    // Normal equations of two algebraic fits in coordinates centred and scaled on the
-    // current model (for conditioning):
-    //   circle:  u^2 + v^2 + a u + b v + c = 0
-    //   ellipse: A u^2 + B v^2 + C u + D v = 1
-    Eigen::Matrix3d cn = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d cr = Eigen::Vector3d::Zero();
-    Eigen::Matrix4d en = Eigen::Matrix4d::Zero();
-    Eigen::Vector4d er = Eigen::Vector4d::Zero();
-    count = 0;
-    unsigned octants = 0;
-    for (const EdgePoint& e : edges)
+    // Rim points in the band about the current model, in coordinates centred and scaled on it
+    // (for conditioning). The band test compares squares: no square root for points outside.
+    const double b = band / mean_r;
+    const double rho_min2 = std::pow(std::max(0.0, 1.0 - b), 2);
+    const double rho_max2 = std::pow(1.0 + b, 2);
+    const double inv_x2 = 1.0 / (semi_x * semi_x);
+    const double inv_y2 = 1.0 / (semi_y * semi_y);
+    RimMoments m;
+    for (const EdgePoint& e : near_)
     {
       const double vx = e.x - cx;
       const double vy = e.y - cy;
-      // sqrt, not std::hypot: this runs for every edge of every candidate (hypot is slow).
-      const double nx = vx / semi_x;
-      const double ny = vy / semi_y;
-      const double rho = std::sqrt(nx * nx + ny * ny);
-      if (std::abs(rho - 1.0) * mean_r > band)
+      const double rho2 = vx * vx * inv_x2 + vy * vy * inv_y2;
+      if (rho2 < rho_min2 || rho2 > rho_max2 || !radial(vx, vy, std::sqrt(vx * vx + vy * vy), e, sign))
         continue;
-      const double d = std::sqrt(vx * vx + vy * vy);
-      if (!radial(vx, vy, d, e, sign))
-        continue;
-      const double u = vx * scale;
-      const double v = vy * scale;
-      const Eigen::Vector3d c(u, v, 1.0);
-      cn += c * c.transpose();
-      cr -= c * (u * u + v * v);
-      const Eigen::Vector4d q(u * u, v * v, u, v);
-      en += q * q.transpose();
-      er += q;
-      // The octant from signs and the diagonal: the same eight sectors as atan2 (which cost 7% of
-      // a frame here), numbered differently.
-      octants |= 1u << ((v < 0.0 ? 4u : 0u) | (u < 0.0 ? 2u : 0u) | (std::abs(u) < std::abs(v) ? 1u : 0u));
-      ++count;
+      m.add(vx * scale, vy * scale);
     }
+    count = m.count;
     if (iteration == kFits)
       break;
     if (count < 8)
       return false;
 
-    const Eigen::Vector3d abc = cn.ldlt().solve(cr);
-    const double ux = -abc(0) / 2.0;
-    const double uy = -abc(1) / 2.0;
-    const double rr = ux * ux + uy * uy - abc(2);
-    if (!(rr > 0.0))
+    double ux = 0.0;
+    double uy = 0.0;
+    double ur = 0.0;
+    if (!m.fitCircle(ux, uy, ur))
       return false;
-    r_fit = std::sqrt(rr) * mean_r;
+    r_fit = ur * mean_r;
     double ncx = cx + ux * mean_r;
     double ncy = cy + uy * mean_r;
     double nsx = r_fit;
     double nsy = r_fit;
-
-    // The ellipse needs the rim on the left and the right of the centre and most octants.
-    // Octants within 45 degrees of the horizontal axis: u < 0 is 2 and 6, u >= 0 is 0 and 4.
-    const bool left = octants & ((1u << 2) | (1u << 6));
-    const bool right = octants & ((1u << 0) | (1u << 4));
-    if (left && right && std::bitset<8>(octants).count() >= 5)
+    // The axis-aligned ellipse (a yawed circle) replaces the circle when it is close to it.
+    double ex = 0.0;
+    double ey = 0.0;
+    double sx = 0.0;
+    double sy = 0.0;
+    if (m.fitEllipse(ex, ey, sx, sy) && std::abs(sx * mean_r / r_fit - 1.0) < 0.2 &&
+        std::abs(sy * mean_r / r_fit - 1.0) < 0.2)
     {
-      const Eigen::Vector4d sol = en.ldlt().solve(er);
-      if (sol(0) > 0.0 && sol(1) > 0.0)
-      {
-        const double x0 = -sol(2) / (2.0 * sol(0));
-        const double y0 = -sol(3) / (2.0 * sol(1));
-        const double k = 1.0 + sol(0) * x0 * x0 + sol(1) * y0 * y0;
-        const double ex = std::sqrt(k / sol(0)) * mean_r;
-        const double ey = std::sqrt(k / sol(1)) * mean_r;
-        if (k > 0.0 && std::abs(ex / r_fit - 1.0) < 0.2 && std::abs(ey / r_fit - 1.0) < 0.2)
-        {
-          ncx = cx + x0 * mean_r;
-          ncy = cy + y0 * mean_r;
-          nsx = ex;
-          nsy = ey;
-        }
-      }
+      ncx = cx + ex * mean_r;
+      ncy = cy + ey * mean_r;
+      nsx = sx * mean_r;
+      nsy = sy * mean_r;
     }
     cx = ncx;
     cy = ncy;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -64,7 +65,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   const HoughParams& hp = params_.hough;
 
   preprocessor_.process(image, format, preprocessed_);
-  edge_detector_.detect(preprocessed_, hp.edge_threshold, edges_);
+  edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_);
 
   double flange_min = 0.0;
   double flange_max = 0.0;
@@ -88,6 +89,11 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   geometry.measure(result);
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+std::size_t SpoolDetector::edgeBudget(cv::Size size) const
+{
+  return static_cast<std::size_t>(params_.hough.edge_budget * (size.width + size.height));
 }
 
 void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min,
@@ -118,7 +124,8 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     // The thesis baseline: the flange nearest the reference, the strongest hole anywhere.
     if (order_.empty())
       return;
-    edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()), hole_edges_);
+    edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()),
+                           edgeBudget(preprocessed_.size()), hole_edges_);
     hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
     const Circle& target = flanges_[order_.front()];
     take(target, matcher_.matchHole(target, holes_));
@@ -172,7 +179,7 @@ std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const 
   const double reach = hole_search.r_max + 2.0;
   const cv::Rect window(cvFloor(w.x - reach), cvFloor(w.y - reach), cvCeil(w.width + 2.0 * reach) + 1,
                         cvCeil(w.height + 2.0 * reach) + 1);
-  edge_detector_.extract(params_.hough.hole_edge_threshold, window, hole_edges_);
+  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
   hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
   // A hole off the fitted centre may mean the fit followed the front and back flanges' joint
   // silhouette: the front rim is then measured again about the hole (the spool's axis); that

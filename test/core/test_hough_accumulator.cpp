@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
+
 #include <opencv2/imgproc.hpp>
 
 #include "spool_vision/hough_accumulator.h"
@@ -17,6 +20,7 @@ using spool_vision::test::SceneStyle;
 
 namespace
 {
+constexpr std::size_t kNoBudget = std::numeric_limits<std::size_t>::max();
 std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polarity polarity,
                          cv::Rect2d window = cv::Rect2d(), double threshold = 0.05)
 {
@@ -24,7 +28,7 @@ std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polari
   cv::GaussianBlur(gray, smooth, cv::Size(), 1.0);
   EdgeDetector edges;
   std::vector<EdgePoint> points;
-  edges.detect(smooth, threshold, points);
+  edges.detect(smooth, threshold, kNoBudget, points);
   HoughSearch search;
   search.r_min = r_min;
   search.r_max = r_max;
@@ -44,7 +48,7 @@ TEST(EdgeDetector, FindsAStepWithSubPixelPositionAndDirection)
   img(cv::Rect(10, 0, 10, 20)).setTo(200);
   EdgeDetector detector;
   std::vector<EdgePoint> edges;
-  detector.detect(img, 0.1, edges);
+  detector.detect(img, 0.1, kNoBudget, edges);
   ASSERT_FALSE(edges.empty());
   for (const auto& e : edges)
   {
@@ -52,8 +56,28 @@ TEST(EdgeDetector, FindsAStepWithSubPixelPositionAndDirection)
     EXPECT_NEAR(e.dx, 1.0, 1e-3);  // dark to bright points right
     EXPECT_NEAR(e.dy, 0.0, 1e-3);
   }
-  detector.detect(cv::Mat(20, 20, CV_8UC1, cv::Scalar(90)), 0.01, edges);
+  detector.detect(cv::Mat(20, 20, CV_8UC1, cv::Scalar(90)), 0.01, kNoBudget, edges);
   EXPECT_TRUE(edges.empty());
+}
+
+TEST(EdgeDetector, KeepsTheStrongestEdgesWithinItsBudget)
+{
+  // Two vertical steps, a strong one (50 -> 200) and a weak one (200 -> 230): 18 rows each.
+  cv::Mat img(20, 30, CV_8UC1, cv::Scalar(50));
+  img(cv::Rect(10, 0, 20, 20)).setTo(200);
+  img(cv::Rect(20, 0, 10, 20)).setTo(230);
+  EdgeDetector detector;
+  std::vector<EdgePoint> edges;
+  detector.detect(img, 0.02, kNoBudget, edges);
+  ASSERT_EQ(edges.size(), 36u);
+  detector.detect(img, 0.02, 18, edges);
+  ASSERT_EQ(edges.size(), 18u);
+  for (const auto& e : edges)
+    EXPECT_NEAR(e.x, 9.5, 0.05);  // only the strong step is left
+  EXPECT_TRUE(
+      std::is_sorted(edges.begin(), edges.end(), [](const EdgePoint& a, const EdgePoint& b) { return a.y < b.y; }));
+  detector.detect(img, 0.02, 5, edges);
+  EXPECT_EQ(edges.size(), 5u);
 }
 
 TEST(HoughAccumulator, FindsADarkCircleWithSubPixelAccuracy)
@@ -183,7 +207,7 @@ TEST(HoughAccumulator, FitAtMeasuresTheFrontRimAboutAKnownCentre)
   cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
   EdgeDetector detector;
   std::vector<EdgePoint> edges;
-  detector.detect(smooth, 0.05, edges);
+  detector.detect(smooth, 0.05, kNoBudget, edges);
   HoughSearch search;
   search.r_min = 100;
   search.r_max = 200;
