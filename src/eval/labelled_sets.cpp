@@ -33,7 +33,7 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
     kind = randomNegative(rng);
   const bool hard = set == FrameSet::kHard;
-  scene = randomScene(kind, seed);
+  scene = hard ? randomHardScene(kind, seed) : randomScene(kind, seed);
   // Drawn last to first: the order in which the compiler evaluated these as call arguments
   // when the main set was first rendered, which keeps the main set's frames as they were.
   const double pitch = rng.uniform(-2.0, 2.0) * kDeg;
@@ -42,6 +42,14 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   const double bearing = rng.uniform(-20.0, 20.0) * kDeg;
   const double distance = rng.uniform(0.5, 1.1);
   pose = bearingPose(distance, bearing, heading, height, pitch);
+  if (hard)
+  {
+    // The rod's top edge must stay below the hole's bottom rim in the image (angles below the
+    // optical axis), or the set would hide the hole it scores.
+    const double rod_top = SpoolRenderer::kPullerOffsetY - 0.5 * SpoolRenderer::kPullerDiameter;
+    const double hole_bottom = (height + 0.5 * scene.hole_diameter) / distance + std::abs(pitch);
+    scene.puller_rod_length = std::min(scene.puller_rod_length, 0.8 * rod_top / hole_bottom);
+  }
 }
 
 // One frame of an approach: 110 cm to 50 cm, the lateral and heading errors shrink to zero
