@@ -890,8 +890,9 @@ void motionBlur(cv::Mat& radiance, const SceneParams& scene, const CameraIntrins
   radiance = sum / copies;
 }
 
-// Centre-weighted auto exposure: the gain (within the sensor's range) that brings the
-// weighted mean of the output grey to the target, metered on a reduced image.
+// Centre-weighted auto exposure (the centre counts 9x the corners): the gain (within the
+// sensor's range) that brings the weighted mean of the output grey to the target, metered on a
+// reduced image.
 double autoExposureGain(const cv::Mat& radiance, const SceneParams& scene, const CameraIntrinsics& k)
 {
   constexpr int kMeterWidth = 64;
@@ -901,7 +902,7 @@ double autoExposureGain(const cv::Mat& radiance, const SceneParams& scene, const
   cv::resize(radiance, small, cv::Size(mw, mh), 0.0, 0.0, cv::INTER_AREA);
   const double su = static_cast<double>(radiance.cols) / mw;
   const double sv = static_cast<double>(radiance.rows) / mh;
-  const double sigma2 = std::pow(0.2 * radiance.cols, 2);
+  const double sigma2 = std::pow(0.15 * radiance.cols, 2);
   std::vector<double> weight(static_cast<std::size_t>(mw * mh));
   std::vector<cv::Vec3d> level(weight.size());  // DN at unit gain
   double weight_sum = 0.0;
@@ -913,7 +914,7 @@ double autoExposureGain(const cv::Mat& radiance, const SceneParams& scene, const
       const double du = u - 0.5 * (radiance.cols - 1);
       const double dv = v - 0.5 * (radiance.rows - 1);
       const std::size_t i = static_cast<std::size_t>(y * mw + x);
-      weight[i] = 1.0 + 3.0 * std::exp(-0.5 * (du * du + dv * dv) / sigma2);
+      weight[i] = 1.0 + 8.0 * std::exp(-0.5 * (du * du + dv * dv) / sigma2);
       weight_sum += weight[i];
       const cv::Vec3f& rad = small.at<cv::Vec3f>(y, x);
       const double g = 255.0 * scene.exposure * vignette(scene, k, u, v);
