@@ -27,6 +27,7 @@ enum class FrameSet
   kMain,       ///< spools at 50-110 cm and +-20 deg bearing, about 15% negatives mixed in
   kApproach,   ///< one spool from 110 cm to 50 cm, ending aligned
   kNegatives,  ///< empty slots, plates, tape rolls and cans (neighbour spools may stand beside)
+  kHard,       ///< main's poses plus camera heights 0-8 cm, with real-webcam effects (hardScene)
 };
 
 /// The camera `distance` m from the slot's flange centre, seeing it at `bearing` rad off the
@@ -35,6 +36,11 @@ CameraPose bearingPose(double distance, double bearing, double heading, double h
 
 /// Scene and pose of frame `index` of a `count`-frame set drawn from `seed`.
 void setFrame(FrameSet set, std::uint64_t seed, int index, int count, SceneParams& scene, CameraPose& pose);
+
+/// The camera a set is rendered with at `size`: the thesis camera (focal length `focal` px, 0 =
+/// 200 px at 120 rows); the hard set's principal point is off the image centre (+1.5% of the
+/// width, -1.2% of the height), as a real webcam's is, so detectors must read cx, cy.
+CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal = 0.0);
 
 /// Reports progress of a long step: what, how many done, of how many.
 using Progress = std::function<void(const std::string& what, int done, int total)>;

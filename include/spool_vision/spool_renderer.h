@@ -59,6 +59,29 @@ struct NeighbourSpool
   double depth_offset = 0.0;  ///< m, its flange face z (positive = set back)
 };
 
+/// A disc or ring hung on the back wall (clutter a detector must not take for a spool).
+struct WallMark
+{
+  double x = 0.0;                   ///< m, centre
+  double y = 1.0;                   ///< m, centre height above the floor
+  double radius = 0.05;             ///< m
+  double inner_radius = 0.0;        ///< m, 0 = a full disc
+  cv::Vec3d colour{0.2, 0.2, 0.2};  ///< BGR reflectance
+};
+
+/// A box standing on a shelf board (clutter). It stands at or behind the flange face plane, so
+/// it can never hide the target's face centre.
+struct ShelfBox
+{
+  double x = 0.4;                   ///< m, centre
+  double z = 0.0;                   ///< m, front face, >= 0
+  double width = 0.1;               ///< m
+  double height = 0.1;              ///< m
+  double depth = 0.1;               ///< m
+  bool upper = false;               ///< stands on the upper board instead of the lower one
+  cv::Vec3d colour{0.3, 0.5, 0.6};  ///< BGR reflectance
+};
+
 /// Everything about a scene except the camera pose. Deterministic: the same parameters
 /// (including seed) render the same image.
 struct SceneParams
@@ -77,9 +100,21 @@ struct SceneParams
   double flange_reflectance = 0.06;  ///< black plastic
   double bore_reflectance = 0.2;     ///< bore wall at mid depth (darker towards the front)
   bool ribs = true;                  ///< concentric moulded ribs on the flange face
-  bool label = false;                ///< paper label on the flange face
-  double label_angle = 0.8;          ///< rad, direction of the label centre from the axis
-  double label_radius = 0.11;        ///< m, label centre from the axis
+  /// rad, slope of the ribs' flanks: > 0 shades each rib as a raised ring whose flanks catch or
+  /// miss the lamps (bright and dark thin circles); 0 = a faintly brighter flat crest
+  double rib_slope = 0.0;
+  /// Glossy face: peak reflectance of a tube lamp's mirror image on the flange faces (a broad
+  /// bright streak where the camera sees the lamp reflected); 0 = matte
+  double gloss = 0.0;
+  cv::Vec3d gloss_lamp{0.0, 1.4, -1.0};  ///< m, a point on the tube lamp (world frame)
+  double gloss_lamp_angle = 0.0;         ///< rad, direction of the tube in the x-y plane (0 = along x)
+  double gloss_spread = 0.1;             ///< m, blur of the lamp's mirror image (face roughness)
+  /// m, light entering either bore opening fades along the bore wall over this length, so deep
+  /// inside the bore is near black; 0 = a wall lit from the back, darkening towards the front
+  double bore_falloff = 0.0;
+  bool label = false;          ///< paper label on the flange face
+  double label_angle = 0.8;    ///< rad, direction of the label centre from the axis
+  double label_radius = 0.11;  ///< m, label centre from the axis
 
   std::vector<NeighbourSpool> neighbours;
 
@@ -95,13 +130,32 @@ struct SceneParams
   double board_thickness = 0.025;           ///< m
   double top_board_clearance = 0.08;        ///< m, flange top to the upper board
   cv::Vec3d wall_colour{0.70, 0.74, 0.76};  ///< BGR reflectance
+  std::vector<WallMark> wall_marks;         ///< clutter on the back wall
+  std::vector<ShelfBox> boxes;              ///< clutter on the boards beside the slot
 
-  // Camera imperfections.
+  /// m, how far ahead of the camera the puller rod's tip reaches along the optical axis; the rod
+  /// (kPullerDiameter, kPullerOffsetY below the camera) enters from the image bottom; 0 = out of view
+  double puller_rod_length = 0.0;
+
+  // Camera imperfections. Lengths "px @480" are pixels at 480 image rows, scaled with the image
+  // height (a webcam's smaller modes bin the same optics).
   double blur_sigma = 0.5;   ///< px, optical blur (0 = none)
-  double noise_sigma = 2.0;  ///< DN at mid grey (8 bit), grows with the signal (shot noise)
+  double noise_sigma = 2.0;  ///< DN at mid grey (8 bit) and unit gain, grows with signal and gain
   int jpeg_quality = 0;      ///< 1-100, 0 = no JPEG round trip
   double vignetting = 0.1;   ///< brightness loss in the image corners
-  std::uint64_t seed = 1;    ///< texture and noise
+  /// Centre-weighted auto exposure: the gain (on top of `exposure`) that brings the
+  /// centre-weighted mean of the output to this fraction of full scale; 0 = fixed gain
+  double auto_exposure_target = 0.0;
+  double auto_exposure_max_gain = 8.0;     ///< the sensor's gain limit
+  double gamma = 1.0;                      ///< output = linear^gamma (webcams: about 0.45); 1 = linear
+  cv::Vec3d white_balance{1.0, 1.0, 1.0};  ///< BGR channel gains (white-balance error)
+  double defocus_radius = 0.0;             ///< px @480, radius of the defocus disc (0 = sharp)
+  double motion_blur = 0.0;                ///< px @480, smear length during the exposure (0 = none)
+  /// true: the smear runs radially from the principal point (driving forward), `motion_blur` at
+  /// the image corner; false: a straight smear along motion_blur_angle
+  bool motion_blur_radial = false;
+  double motion_blur_angle = 0.0;  ///< rad, from the image u axis
+  std::uint64_t seed = 1;          ///< texture and noise
 };
 
 /// A 3D circle (rim) as it appears in the image.
@@ -144,10 +198,16 @@ struct GroundTruth
   double yaw = SpoolDetection::kNaN;
   double lateral_offset = SpoolDetection::kNaN;                       ///< m, distance * tan(yaw)
   cv::Point2d reference{SpoolDetection::kNaN, SpoolDetection::kNaN};  ///< px, puller axis
-  bool flange_half_visible = false;           ///< at least half of the flange rim inside the image
-  bool hole_in_view = false;                  ///< the whole front opening inside the image
-  bool bore_visible = false;                  ///< the lit wall shows through the bore
-  double hole_lit_fraction = 0.0;             ///< lit part of the front opening's area, 0..1
+  bool flange_half_visible = false;  ///< at least half of the flange rim inside the image
+  /// The whole front opening inside the image and not hidden by the puller rod. A hole in view
+  /// but dark (the detector must still find its front rim) is hole_in_view && !bore_visible.
+  bool hole_in_view = false;
+  bool hole_occluded = false;      ///< the puller rod hides part of the front opening
+  bool bore_visible = false;       ///< the lit wall shows through the bore
+  double hole_lit_fraction = 0.0;  ///< lit part of the front opening's area, 0..1
+  /// px, centroid of the see-through lens (the front opening where the back opening shows
+  /// through; above the rim's centre when the camera is above the axis); NaN when none
+  cv::Point2d hole_lens{SpoolDetection::kNaN, SpoolDetection::kNaN};
   double puller_miss = SpoolDetection::kNaN;  ///< m, puller axis to hole axis at the flange
   double axis_angle = SpoolDetection::kNaN;   ///< rad, between puller and spool axes
   /// Physically ready to insert: puller_miss <= t_f, |yaw| <= 0.25 deg, axis_angle <= 0.25 deg
@@ -197,6 +257,11 @@ private:
 /// Random but plausible scene parameters of the given kind (lamps, neighbours, label, ribs,
 /// imperfections, object size). Deterministic in `seed`.
 SceneParams randomScene(SceneKind kind, std::uint64_t seed);
+
+/// randomScene's shelf with real-webcam effects and finishes drawn on top: auto exposure with
+/// gamma, gain noise, white-balance error, vignetting, defocus, motion blur, MJPEG, glossy and
+/// ribbed faces, a dark bore interior, clutter and the puller rod (the hard set). Deterministic.
+SceneParams randomHardScene(SceneKind kind, std::uint64_t seed);
 
 /// One JSON object (single line) describing `truth`; NaN and missing circles are null.
 std::string groundTruthToJson(const GroundTruth& truth);

@@ -21,7 +21,8 @@ SceneKind randomNegative(cv::RNG& rng)
   return kinds[rng.uniform(0, 4)];
 }
 
-// One frame of the main or negatives set: random scene, random pose over the working range.
+// One frame of the main, negatives or hard set: random scene, random pose over the working
+// range. The hard set's camera rides anywhere from level with the bore axis to 8 cm above it.
 void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& scene, CameraPose& pose)
 {
   const std::uint64_t seed = frameSeed(set_seed, index);
@@ -31,9 +32,24 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   SceneKind kind = SceneKind::kSpool;
   if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
     kind = randomNegative(rng);
-  scene = randomScene(kind, seed);
-  pose = bearingPose(rng.uniform(0.5, 1.1), rng.uniform(-20.0, 20.0) * kDeg, rng.uniform(-5.0, 5.0) * kDeg,
-                     rng.uniform(0.05, 0.07), rng.uniform(-2.0, 2.0) * kDeg);
+  const bool hard = set == FrameSet::kHard;
+  scene = hard ? randomHardScene(kind, seed) : randomScene(kind, seed);
+  // Drawn last to first: the order in which the compiler evaluated these as call arguments
+  // when the main set was first rendered, which keeps the main set's frames as they were.
+  const double pitch = rng.uniform(-2.0, 2.0) * kDeg;
+  const double height = hard ? rng.uniform(0.0, 0.08) : rng.uniform(0.05, 0.07);
+  const double heading = rng.uniform(-5.0, 5.0) * kDeg;
+  const double bearing = rng.uniform(-20.0, 20.0) * kDeg;
+  const double distance = rng.uniform(0.5, 1.1);
+  pose = bearingPose(distance, bearing, heading, height, pitch);
+  if (hard)
+  {
+    // The rod's top edge must stay below the hole's bottom rim in the image (angles below the
+    // optical axis), or the set would hide the hole it scores.
+    const double rod_top = SpoolRenderer::kPullerOffsetY - 0.5 * SpoolRenderer::kPullerDiameter;
+    const double hole_bottom = (height + 0.5 * scene.hole_diameter) / distance + std::abs(pitch);
+    scene.puller_rod_length = std::min(scene.puller_rod_length, 0.8 * rod_top / hole_bottom);
+  }
 }
 
 // One frame of an approach: 110 cm to 50 cm, the lateral and heading errors shrink to zero
@@ -73,6 +89,19 @@ void setFrame(FrameSet set, std::uint64_t seed, int index, int count, SceneParam
     approachFrame(seed, index, count, scene, pose);
   else
     randomFrame(set, seed, index, scene, pose);
+}
+
+CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
+{
+  CameraIntrinsics camera = CameraIntrinsics::thesisDefault(size.width, size.height);
+  if (focal > 0.0)
+    camera.fx = camera.fy = focal;
+  if (set == FrameSet::kHard)
+  {
+    camera.cx += 0.015 * size.width;
+    camera.cy -= 0.012 * size.height;
+  }
+  return camera;
 }
 
 std::vector<RenderedFrame> renderSet(const SpoolRenderer& renderer, FrameSet set, std::uint64_t seed, int count,

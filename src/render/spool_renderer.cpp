@@ -23,6 +23,10 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = 1e-9;
 constexpr int kSuperSamples = 4;  // per axis, on pixels where surfaces meet
 constexpr int kRimSamples = 720;
+// Moulded ribs on the flange face: radii of their crests (m), crest half width and flank width.
+constexpr std::array<double, 4> kRibRadii = {0.05, 0.08, 0.115, 0.15};
+constexpr double kRibHalfWidth = 0.002;
+constexpr double kRibFlank = 0.002;
 
 enum class Material : std::uint8_t
 {
@@ -34,7 +38,9 @@ enum class Material : std::uint8_t
   kObject,
   kObjectRim,
   kCardboard,
-  kMetal
+  kMetal,
+  kClutter,  // owner: index into the clutter colours
+  kRod       // the puller rod
 };
 
 // A disc or annulus in the plane z = const, facing the camera (-z).
@@ -77,8 +83,46 @@ struct Hit
   Vec3 normal = Vec3::Zero();
   int owner = -1;
   bool textured = false;
-  double z_front = 0.0;  // tubes: where the surface starts, for the bore's depth shading
+  double z_front = 0.0;  // tubes: where the surface starts and ends, for the bore's shading
+  double z_back = 0.0;
 };
+
+// An axis-aligned box (shelf board or clutter box).
+struct Box
+{
+  std::array<Vec3, 2> bounds;
+  Material material;
+  int owner;  // clutter colour index, -1 for boards
+};
+
+// Camera placement: centre in world and the camera-to-world rotation (columns: x right,
+// y down, z forward).
+struct CameraFrame
+{
+  Vec3 centre;
+  Mat3 rotation;
+};
+
+// Where a ray from the camera centre along `d` (camera frame) enters the puller rod's surface:
+// the ray parameter, or infinity when it misses. The rod's axis runs parallel to the optical
+// axis kPullerOffsetY below the camera, from the camera plane to `length` ahead.
+double pullerRodHit(const Vec3& d, double length, Vec3* normal = nullptr)
+{
+  const double offset = SpoolRenderer::kPullerOffsetY;
+  const double radius = 0.5 * SpoolRenderer::kPullerDiameter;
+  const double a = d.x() * d.x() + d.y() * d.y();
+  const double b = -d.y() * offset;
+  const double disc = b * b - a * (offset * offset - radius * radius);
+  if (length <= 0.0 || a < kEps || disc < 0.0)
+    return kInf;
+  const double t = (-b - std::sqrt(disc)) / a;
+  const double z = t * d.z();
+  if (t <= kEps || z < 0.0 || z > length)
+    return kInf;
+  if (normal)
+    *normal = Vec3(t * d.x() / radius, (t * d.y() - offset) / radius, 0.0);
+  return t;
+}
 
 // Lamps as seen from the shelf: S1 left, S2 centre, S3 right, all above and in front. The
 // nominal shares solve the thesis' pairwise readings (S1+S2 117, S1+S3 110, S2+S3 155 lx).
@@ -139,13 +183,13 @@ std::vector<Vec3> neighbourCentres(const SceneParams& p)
 class Scene
 {
 public:
-  explicit Scene(const SceneParams& params) : p_(params)
+  Scene(const SceneParams& params, const CameraFrame& camera) : p_(params), camera_(camera)
   {
     build();
     setupLights();
   }
 
-  // Nearest hit along o + t d (d need not be unit length).
+  // Nearest hit along o + t d (d need not be unit length); o is the camera centre.
   Hit trace(const Vec3& o, const Vec3& d) const
   {
     // Divisions are the costly part of the tests below: share them across primitives.
@@ -161,8 +205,8 @@ public:
       hit.material = Material::kWall;
       hit.normal = Vec3(0, 0, -1);
     }
-    for (std::size_t i = 0; i < boards_.size(); ++i)
-      intersectBox(o, d, inv, boards_[i], static_cast<int>(i) + 1, hit);
+    for (std::size_t i = 0; i < boxes_.size(); ++i)
+      intersectBox(o, d, inv, boxes_[i], static_cast<int>(i) + 1, hit);
     for (const Group& g : groups_)
     {
       const Vec3 w = g.centre - o;
@@ -174,6 +218,16 @@ public:
         intersectDisc(o, d, inv.z(), disc, id++, hit);
       for (const Tube& tube : g.tubes)
         intersectTube(o, d, a_xy, inv_a_xy, tube, id++, hit);
+    }
+    Vec3 rod_normal = Vec3::Zero();
+    const double rod_t = pullerRodHit(camera_.rotation.transpose() * d, p_.puller_rod_length, &rod_normal);
+    if (rod_t < hit.t)
+    {
+      hit.t = rod_t;
+      hit.id = next_id_;
+      hit.material = Material::kRod;
+      hit.normal = camera_.rotation * rod_normal;
+      hit.owner = -1;
     }
     return hit;
   }
@@ -205,18 +259,30 @@ public:
         return Vec3(0.38, 0.52, 0.62) * grain * diffuse(hit.normal);
       }
       case Material::kFlange:
-        return flangeColour(pt, hit, footprint, sub) * diffuse(hit.normal) +
-               Vec3::Constant(specular(hit.normal, view, 0.02, 5));
+        return flangeRadiance(o, pt, view, hit, footprint, sub);
       case Material::kCopper:
         return Vec3(0.18, 0.42, 0.75) * diffuse(hit.normal) +
                Vec3(0.35, 0.55, 0.8) * specular(hit.normal, view, 0.35, 5);
       case Material::kBore:
       {
+        if (p_.bore_falloff > 0.0)
+        {
+          // A 3.6 cm bore 20 cm long is lit only through its openings: the lamps' ambient light
+          // at the front, the lit wall at the back; both die out within a few centimetres.
+          const double front = std::exp(-(pt.z() - hit.z_front) / p_.bore_falloff);
+          const double back = std::exp(-(hit.z_back - pt.z()) / p_.bore_falloff);
+          return Vec3::Constant(p_.bore_reflectance * (front_light_ * front + back_light_ * back));
+        }
         // Light enters from the back opening, so the wall darkens towards the front rim but
         // stays lighter than the flange face.
         const double depth = std::clamp((pt.z() - hit.z_front) / p_.bore_length, 0.0, 1.0);
         return Vec3::Constant(p_.bore_reflectance * (0.7 + 0.6 * depth) * light_scale_);
       }
+      case Material::kClutter:
+        return clutter_colours_[hit.owner] * diffuse(hit.normal);
+      case Material::kRod:
+        // Turned steel: grey, with a highlight running along the rod.
+        return Vec3::Constant(0.45) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.5, 4));
       case Material::kObject:
         return toVec(p_.object_colour) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.05, 5));
       case Material::kObjectRim:
@@ -260,6 +326,8 @@ private:
     for (int i = 0; i < 3; ++i)
       lamp_weight_[i] = on[i] ? kLampShare[i] / total : 0.0;
     light_scale_ = sceneIlluminance(p_) / kReferenceLux;
+    front_light_ = kAmbientFraction * light_scale_;
+    back_light_ = toVec(p_.wall_colour).mean() * diffuse(Vec3(0, 0, -1));
   }
 
   double diffuse(const Vec3& n) const
@@ -284,6 +352,66 @@ private:
       s += lamp_weight_[i] * c;
     }
     return light_scale_ * ks * s;
+  }
+
+  // Box filter of the band [lo, hi] over a pixel footprint [r - half, r + half].
+  static double coverage(double r, double half, double lo, double hi)
+  {
+    return std::max(0.0, std::min(r + half, hi) - std::max(r - half, lo)) / (2.0 * half);
+  }
+
+  // The tube lamp's mirror image in a flange face (plane z = pt.z) seen from o: the reflected
+  // ray passes the lamp where the straight ray meets the lamp mirrored behind the face.
+  double glossStreak(const Vec3& o, const Vec3& pt) const
+  {
+    const cv::Vec3d& lamp = p_.gloss_lamp;
+    const double k = (2.0 * pt.z() - lamp[2] - o.z()) / (pt.z() - o.z());
+    const double qx = o.x() + k * (pt.x() - o.x()) - lamp[0];
+    const double qy = o.y() + k * (pt.y() - o.y()) - lamp[1];
+    const double off = (-qx * std::sin(p_.gloss_lamp_angle) + qy * std::cos(p_.gloss_lamp_angle)) / p_.gloss_spread;
+    return p_.gloss * light_scale_ * std::exp(-0.5 * off * off);
+  }
+
+  Vec3 flangeRadiance(const Vec3& o, const Vec3& pt, const Vec3& view, const Hit& hit, double footprint, int& sub) const
+  {
+    Vec3 radiance = flangeColour(pt, hit, footprint, sub) * diffuse(hit.normal) +
+                    Vec3::Constant(specular(hit.normal, view, 0.02, 5));
+    const bool face = hit.normal.z() < -0.5;
+    if (p_.ribs && p_.rib_slope > 0.0 && face && hit.textured && sub == 0)
+      radiance = ribFlanks(pt, view, hit, footprint, radiance);
+    if (p_.gloss > 0.0 && face && sub == 0)
+      radiance += Vec3::Constant(glossStreak(o, pt));
+    return radiance;
+  }
+
+  // Raised ribs: each flank of a rib is tilted by rib_slope towards or away from the axis, so
+  // one flank faces the lamps above (a bright thin circle) and the other faces away (a dark one).
+  Vec3 ribFlanks(const Vec3& pt, const Vec3& view, const Hit& hit, double footprint, const Vec3& flat) const
+  {
+    const SpoolInfo& s = spools_[hit.owner];
+    const double x = pt.x() - s.cx;
+    const double y = pt.y() - s.cy;
+    const double r = std::hypot(x, y);
+    if (r < kEps)
+      return flat;
+    const double half = 0.5 * std::max(footprint, 1e-4);
+    const Vec3 outward(x / r, y / r, 0.0);
+    const Vec3 black = Vec3::Constant(p_.flange_reflectance);
+    Vec3 radiance = flat;
+    for (int side : {-1, 1})  // inner flank faces the axis, outer flank faces away
+    {
+      double cover = 0.0;
+      for (double rib : kRibRadii)
+        cover += side < 0 ? coverage(r, half, rib - kRibHalfWidth - kRibFlank, rib - kRibHalfWidth)
+                          : coverage(r, half, rib + kRibHalfWidth, rib + kRibHalfWidth + kRibFlank);
+      if (cover <= 0.0)
+        continue;
+      const Vec3 n = (hit.normal * std::cos(p_.rib_slope) + side * outward * std::sin(p_.rib_slope)).normalized();
+      const Vec3 flank = black * diffuse(n) + Vec3::Constant(specular(n, view, 0.02 + 0.5 * p_.gloss, 5));
+      cover = std::min(cover, 1.0);
+      radiance = (1.0 - cover) * radiance + cover * flank;
+    }
+    return radiance;
   }
 
   Vec3 flangeColour(const Vec3& pt, const Hit& hit, double footprint, int& sub) const
@@ -315,15 +443,12 @@ private:
     {
       // Each rib's crest catches a little more light. Its 4 mm band is box-filtered over the
       // pixel footprint, so thin ribs far away blend instead of aliasing.
-      static constexpr std::array<double, 4> kRibRadii = {0.05, 0.08, 0.115, 0.15};
-      constexpr double kHalfWidth = 0.002;
       const double r = std::hypot(x, y);
       const double half = 0.5 * std::max(footprint, 1e-4);
-      double coverage = 0.0;
+      double crest = 0.0;
       for (double rib : kRibRadii)
-        coverage +=
-            std::max(0.0, std::min(r + half, rib + kHalfWidth) - std::max(r - half, rib - kHalfWidth)) / (2.0 * half);
-      return black + Vec3::Constant(0.02 * std::min(coverage, 1.0));
+        crest += coverage(r, half, rib - kRibHalfWidth, rib + kRibHalfWidth);
+      return black + Vec3::Constant(0.02 * std::min(crest, 1.0));
     }
     return black;
   }
@@ -415,10 +540,35 @@ private:
     lower_board_top_ = SpoolRenderer::kHoleHeight - big;
     lower_board_bottom_ = lower_board_top_ - p_.board_thickness;
     upper_board_bottom_ = SpoolRenderer::kHoleHeight + big + p_.top_board_clearance;
-    boards_ = {{Vec3(-20.0, lower_board_bottom_, p_.board_front), Vec3(20.0, lower_board_top_, wall_z_)},
-               {Vec3(-20.0, upper_board_bottom_, p_.board_front),
-                Vec3(20.0, upper_board_bottom_ + p_.board_thickness, wall_z_)}};
-    next_id_ = 1 + static_cast<int>(boards_.size());
+    const double upper_board_top = upper_board_bottom_ + p_.board_thickness;
+    boxes_ = {{{Vec3(-20.0, lower_board_bottom_, p_.board_front), Vec3(20.0, lower_board_top_, wall_z_)},
+               Material::kBoard,
+               -1},
+              {{Vec3(-20.0, upper_board_bottom_, p_.board_front), Vec3(20.0, upper_board_top, wall_z_)},
+               Material::kBoard,
+               -1}};
+    for (const ShelfBox& b : p_.boxes)
+    {
+      const double floor = b.upper ? upper_board_top : lower_board_top_;
+      boxes_.push_back(
+          {{Vec3(b.x - 0.5 * b.width, floor, b.z), Vec3(b.x + 0.5 * b.width, floor + b.height, b.z + b.depth)},
+           Material::kClutter,
+           static_cast<int>(clutter_colours_.size())});
+      clutter_colours_.push_back(toVec(b.colour));
+    }
+    next_id_ = 1 + static_cast<int>(boxes_.size());
+    for (const WallMark& m : p_.wall_marks)
+    {
+      // Just in front of the wall, so the wall never wins the depth test against it.
+      const double z = wall_z_ - 1e-4;
+      Group g;
+      g.centre = Vec3(m.x, m.y, z);
+      g.radius2 = m.radius * m.radius + 1e-4;
+      g.discs.push_back({m.x, m.y, z, m.inner_radius * m.inner_radius, m.radius * m.radius, Material::kClutter,
+                         static_cast<int>(clutter_colours_.size()), false});
+      clutter_colours_.push_back(toVec(m.colour));
+      addGroup(std::move(g));
+    }
 
     if (p_.kind == SceneKind::kSpool)
       addSpool(0.0, 0.0, p_.label_angle);
@@ -429,9 +579,9 @@ private:
       addSpool(centre.x(), centre.z(), p_.label_angle + 1.7 * ++count);
   }
 
-  static void intersectBox(const Vec3& o, const Vec3& d, const Vec3& inv, const std::array<Vec3, 2>& box, int id,
-                           Hit& hit)
+  static void intersectBox(const Vec3& o, const Vec3& d, const Vec3& inv, const Box& b, int id, Hit& hit)
   {
+    const std::array<Vec3, 2>& box = b.bounds;
     double t0 = 0.0;
     double t1 = hit.t;
     int axis = -1;
@@ -466,10 +616,10 @@ private:
       return;  // the camera is inside the box
     hit.t = t0;
     hit.id = id;
-    hit.material = Material::kBoard;
+    hit.material = b.material;
     hit.normal = Vec3::Zero();
     hit.normal[axis] = sign;
-    hit.owner = -1;
+    hit.owner = b.owner;
   }
 
   static void intersectDisc(const Vec3& o, const Vec3& d, double inv_dz, const Disc& disc, int id, Hit& hit)
@@ -517,29 +667,26 @@ private:
     hit.normal = Vec3(sign * (ox + t * d.x()) / tube.r, sign * (oy + t * d.y()) / tube.r, 0.0);
     hit.owner = -1;
     hit.z_front = tube.z0;
+    hit.z_back = tube.z1;
   }
 
   const SceneParams& p_;
+  CameraFrame camera_;
   std::array<double, 3> lamp_weight_{};
   double light_scale_ = 1.0;
+  double front_light_ = 0.0;  // bore: light entering the front opening
+  double back_light_ = 0.0;   // bore: light entering the back opening from the lit wall
   double wall_z_ = 0.3;
   double lower_board_top_ = 0.0;
   double lower_board_bottom_ = 0.0;
   double upper_board_bottom_ = 0.0;
   double object_cx_ = 0.0;
   double object_cy_ = 0.0;
-  std::vector<std::array<Vec3, 2>> boards_;
+  std::vector<Box> boxes_;  // the two shelf boards, then clutter boxes
+  std::vector<Vec3> clutter_colours_;
   std::vector<Group> groups_;
   std::vector<SpoolInfo> spools_;
   int next_id_ = 0;
-};
-
-// Camera placement: centre in world and the camera-to-world rotation (columns: x right,
-// y down, z forward).
-struct CameraFrame
-{
-  Vec3 centre;
-  Mat3 rotation;
 };
 
 CameraFrame cameraFrame(const CameraPose& pose)
@@ -642,12 +789,25 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
   return pc;
 }
 
-// Fraction of the front opening through which the camera sees past the back opening.
-double litFraction(const CameraFrame& cam, double hole_radius, double bore_length)
+// How the camera sees the target's front opening: the fraction through which it sees past the
+// back opening (the lens), the lens' centroid in the image, and whether the puller rod hides
+// any of the opening.
+struct OpeningView
+{
+  double lit_fraction = 0.0;
+  cv::Point2d lens{SpoolDetection::kNaN, SpoolDetection::kNaN};
+  bool occluded = false;
+};
+
+OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const SceneParams& scene)
 {
   constexpr int kGrid = 64;
+  const double hole_radius = 0.5 * scene.hole_diameter;
+  const Mat3 world_to_cam = cam.rotation.transpose();
+  OpeningView view;
   int total = 0;
   int lit = 0;
+  cv::Point2d lens_sum(0.0, 0.0);
   for (int i = 0; i < kGrid; ++i)
     for (int j = 0; j < kGrid; ++j)
     {
@@ -658,11 +818,127 @@ double litFraction(const CameraFrame& cam, double hole_radius, double bore_lengt
       ++total;
       const Vec3 p(x, SpoolRenderer::kHoleHeight + y, 0.0);
       const Vec3 d = p - cam.centre;
-      const Vec3 q = cam.centre + d * ((bore_length - cam.centre.z()) / d.z());
+      const Vec3 pc = world_to_cam * d;
+      view.occluded |= pullerRodHit(pc, scene.puller_rod_length) < 1.0;
+      const Vec3 q = cam.centre + d * ((scene.bore_length - cam.centre.z()) / d.z());
       if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius)
+      {
         ++lit;
+        lens_sum += cv::Point2d(k.fx * pc.x() / pc.z() + k.cx, k.fy * pc.y() / pc.z() + k.cy);
+      }
     }
-  return total > 0 ? static_cast<double>(lit) / total : 0.0;
+  view.lit_fraction = total > 0 ? static_cast<double>(lit) / total : 0.0;
+  if (lit > 0)
+    view.lens = lens_sum / lit;
+  return view;
+}
+
+// Brightness left at pixel (u, v) after vignetting, which darkens away from the principal point.
+double vignette(const SceneParams& scene, const CameraIntrinsics& k, double u, double v)
+{
+  const double half_diag2 = 0.25 * (double(k.width) * k.width + double(k.height) * k.height);
+  return 1.0 - scene.vignetting * (((u - k.cx) * (u - k.cx) + (v - k.cy) * (v - k.cy)) / half_diag2);
+}
+
+// A linear level (DN, 255 = full scale) as the camera's output encodes it.
+double gammaEncode(const SceneParams& scene, double level)
+{
+  if (scene.gamma == 1.0)
+    return level;
+  return 255.0 * std::pow(std::clamp(level / 255.0, 0.0, 1.0), scene.gamma);
+}
+
+// Defocus: a uniform disc of `radius` px (soft-edged so sub-pixel radii still blur).
+void defocus(cv::Mat& radiance, double radius)
+{
+  if (radius < 0.25)
+    return;
+  const int reach = static_cast<int>(std::ceil(radius));
+  cv::Mat kernel(2 * reach + 1, 2 * reach + 1, CV_32F);
+  for (int y = -reach; y <= reach; ++y)
+    for (int x = -reach; x <= reach; ++x)
+      kernel.at<float>(y + reach, x + reach) =
+          static_cast<float>(std::clamp(radius + 0.5 - std::hypot(x, y), 0.0, 1.0));
+  kernel /= cv::sum(kernel)[0];
+  cv::filter2D(radiance, radiance, -1, kernel, cv::Point(-1, -1), 0.0, cv::BORDER_REFLECT);
+}
+
+// The exposure integrates the image while it moves: the mean of copies along the smear. The
+// smear is centred on the mid-exposure image, where the ground truth puts the rims.
+void motionBlur(cv::Mat& radiance, const SceneParams& scene, const CameraIntrinsics& k, double length)
+{
+  if (length < 0.25)
+    return;
+  const int copies = static_cast<int>(std::ceil(length)) + 2;
+  const double half_diag = 0.5 * std::hypot(k.width, k.height);
+  cv::Mat sum = cv::Mat::zeros(radiance.size(), radiance.type());
+  cv::Mat moved;
+  for (int i = 0; i < copies; ++i)
+  {
+    const double s = static_cast<double>(i) / (copies - 1) - 0.5;
+    cv::Matx23d m(1.0, 0.0, s * length * std::cos(scene.motion_blur_angle), 0.0, 1.0,
+                  s * length * std::sin(scene.motion_blur_angle));
+    if (scene.motion_blur_radial)
+    {
+      // Driving forward magnifies the image about the principal point.
+      const double zoom = 1.0 + s * length / half_diag;
+      m = cv::Matx23d(zoom, 0.0, k.cx * (1.0 - zoom), 0.0, zoom, k.cy * (1.0 - zoom));
+    }
+    cv::warpAffine(radiance, moved, m, radiance.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+    sum += moved;
+  }
+  radiance = sum / copies;
+}
+
+// Centre-weighted auto exposure (the centre counts 9x the corners): the gain (within the
+// sensor's range) that brings the weighted mean of the output grey to the target, metered on a
+// reduced image.
+double autoExposureGain(const cv::Mat& radiance, const SceneParams& scene, const CameraIntrinsics& k)
+{
+  constexpr int kMeterWidth = 64;
+  const int mw = std::min(kMeterWidth, radiance.cols);
+  const int mh = std::max(1, radiance.rows * mw / radiance.cols);
+  cv::Mat small;
+  cv::resize(radiance, small, cv::Size(mw, mh), 0.0, 0.0, cv::INTER_AREA);
+  const double su = static_cast<double>(radiance.cols) / mw;
+  const double sv = static_cast<double>(radiance.rows) / mh;
+  const double sigma2 = std::pow(0.15 * radiance.cols, 2);
+  std::vector<double> weight(static_cast<std::size_t>(mw * mh));
+  std::vector<cv::Vec3d> level(weight.size());  // DN at unit gain
+  double weight_sum = 0.0;
+  for (int y = 0; y < mh; ++y)
+    for (int x = 0; x < mw; ++x)
+    {
+      const double u = (x + 0.5) * su - 0.5;
+      const double v = (y + 0.5) * sv - 0.5;
+      const double du = u - 0.5 * (radiance.cols - 1);
+      const double dv = v - 0.5 * (radiance.rows - 1);
+      const std::size_t i = static_cast<std::size_t>(y * mw + x);
+      weight[i] = 1.0 + 8.0 * std::exp(-0.5 * (du * du + dv * dv) / sigma2);
+      weight_sum += weight[i];
+      const cv::Vec3f& rad = small.at<cv::Vec3f>(y, x);
+      const double g = 255.0 * scene.exposure * vignette(scene, k, u, v);
+      for (int ch = 0; ch < 3; ++ch)
+        level[i][ch] = g * rad[ch] * scene.white_balance[ch];
+    }
+  auto meanGrey = [&](double gain)
+  {
+    double sum = 0.0;
+    for (std::size_t i = 0; i < weight.size(); ++i)
+      sum +=
+          weight[i] * (0.114 * gammaEncode(scene, gain * level[i][0]) + 0.587 * gammaEncode(scene, gain * level[i][1]) +
+                       0.299 * gammaEncode(scene, gain * level[i][2]));
+    return sum / (weight_sum * 255.0);
+  };
+  // The mean grows with the gain: bisect on its logarithm.
+  double lo = std::log(1.0 / 8.0);
+  double hi = std::log(scene.auto_exposure_max_gain);
+  for (int i = 0; i < 24; ++i)
+  {
+    const double mid = 0.5 * (lo + hi);
+    (meanGrey(std::exp(mid)) < scene.auto_exposure_target ? lo : hi) = mid;
+  }
+  return std::exp(0.5 * (lo + hi));
 }
 
 std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t salt)
@@ -763,8 +1039,11 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
     throw std::invalid_argument("camera pose: the front flange is not in front of the camera");
   gt.spool_centre_in_view |= insideImage(camera_, gt.flange->centre_x, gt.flange->centre_y);
   gt.flange_half_visible = gt.flange->visible_fraction >= 0.5;
-  gt.hole_in_view = gt.hole->visible_fraction >= 1.0;
-  gt.hole_lit_fraction = litFraction(cam, 0.5 * scene.hole_diameter, scene.bore_length);
+  const OpeningView opening = openingView(camera_, cam, scene);
+  gt.hole_occluded = opening.occluded;
+  gt.hole_in_view = gt.hole->visible_fraction >= 1.0 && !opening.occluded;
+  gt.hole_lit_fraction = opening.lit_fraction;
+  gt.hole_lens = opening.lens;
   gt.bore_visible = gt.hole_lit_fraction > 0.0;
 
   gt.distance = (centre - cam.centre).norm();
@@ -791,7 +1070,7 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
   RenderedFrame frame;
   frame.truth = groundTruth(scene, pose);
   const CameraFrame cam = cameraFrame(pose);
-  const Scene world(scene);
+  const Scene world(scene, cam);
   const int w = camera_.width;
   const int h = camera_.height;
 
@@ -847,27 +1126,32 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
       radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(sum.x(), sum.y(), sum.z());
     }
 
-  // Camera: lens blur and vignetting, then shot and read noise, quantisation and JPEG.
+  // Camera: lens blur (optical, defocus, motion), vignetting, auto exposure, white balance,
+  // then shot and read noise (both grow with the gain), gamma, quantisation and JPEG.
   if (scene.blur_sigma > 0.05)
     cv::GaussianBlur(radiance, radiance, cv::Size(), scene.blur_sigma);
+  const double per_480_rows = h / 480.0;
+  defocus(radiance, scene.defocus_radius * per_480_rows);
+  motionBlur(radiance, scene, camera_, scene.motion_blur * per_480_rows);
+  const double auto_gain = scene.auto_exposure_target > 0.0 ? autoExposureGain(radiance, scene, camera_) : 1.0;
   cv::Mat noise(h, w, CV_32FC3);
   cv::RNG rng(mixSeed(scene.seed, 1));
   rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
-  const double half_diag2 = 0.25 * (double(w) * w + double(h) * h);
   cv::Mat image(h, w, CV_8UC3);
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
     {
-      const double r2 = ((u - camera_.cx) * (u - camera_.cx) + (v - camera_.cy) * (v - camera_.cy)) / half_diag2;
-      const double gain = 255.0 * scene.exposure * (1.0 - scene.vignetting * r2);
+      const double gain = 255.0 * scene.exposure * auto_gain * vignette(scene, camera_, u, v);
       const cv::Vec3f& rad = radiance.at<cv::Vec3f>(v, u);
       const cv::Vec3f& n = noise.at<cv::Vec3f>(v, u);
       cv::Vec3b& out = image.at<cv::Vec3b>(v, u);
       for (int ch = 0; ch < 3; ++ch)
       {
-        const double level = gain * rad[ch];
-        const double sigma = scene.noise_sigma * std::sqrt((std::max(level, 0.0) + 16.0) / 144.0);
-        out[ch] = cv::saturate_cast<uchar>(level + sigma * n[ch]);
+        const double level = gain * rad[ch] * scene.white_balance[ch];
+        // Electrons carry shot noise, the amplifier adds read noise; the gain scales both.
+        const double sigma =
+            scene.noise_sigma * std::sqrt((auto_gain * std::max(level, 0.0) + 16.0 * auto_gain * auto_gain) / 144.0);
+        out[ch] = cv::saturate_cast<uchar>(gammaEncode(scene, level + sigma * n[ch]));
       }
     }
   if (scene.jpeg_quality > 0)
@@ -944,6 +1228,91 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed)
   return s;
 }
 
+SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
+{
+  SceneParams s = randomScene(kind, seed);
+  cv::RNG rng(mixSeed(seed, 3));
+  auto chance = [&rng](double p) { return rng.uniform(0.0, 1.0) < p; };
+
+  // Webcam: auto exposure lifts whatever fills the centre to mid grey, with the gain's noise.
+  s.auto_exposure_target = rng.uniform(0.35, 0.55);
+  s.auto_exposure_max_gain = rng.uniform(6.0, 16.0);
+  s.gamma = rng.uniform(0.4, 0.6);
+  s.white_balance = cv::Vec3d(rng.uniform(0.8, 1.2), 1.0, rng.uniform(0.8, 1.2));
+  s.noise_sigma = rng.uniform(1.5, 4.0);
+  s.vignetting = rng.uniform(0.1, 0.4);
+  s.blur_sigma = rng.uniform(0.3, 1.0);
+  s.defocus_radius = chance(0.4) ? rng.uniform(0.5, 2.5) : 0.0;
+  if (chance(0.4))
+  {
+    s.motion_blur = rng.uniform(1.0, 6.0);
+    s.motion_blur_radial = chance(0.6);
+    s.motion_blur_angle = chance(0.5) ? 0.0 : 0.5 * M_PI;
+  }
+  s.jpeg_quality = chance(0.85) ? rng.uniform(50, 91) : 0;
+
+  // A dark wall (or one the centre-weighted metering ignores) makes black faces mid grey.
+  if (chance(0.4))
+    s.wall_colour *= rng.uniform(0.15, 0.45);
+
+  // Faces from matte to glossy, ribbed, labelled.
+  s.flange_reflectance = rng.uniform(0.04, 0.1);
+  s.ribs = chance(0.7);
+  s.rib_slope = rng.uniform(0.3, 0.9);
+  s.label = chance(0.5);
+  if (chance(0.6))
+  {
+    s.gloss = rng.uniform(0.1, 0.6);
+    s.gloss_lamp =
+        cv::Vec3d(rng.uniform(-0.4, 0.4), SpoolRenderer::kHoleHeight + rng.uniform(-0.3, 0.4), -rng.uniform(0.5, 1.5));
+    s.gloss_lamp_angle = rng.uniform(-0.6, 0.6);
+    s.gloss_spread = rng.uniform(0.04, 0.15);
+  }
+  s.bore_falloff = rng.uniform(0.005, 0.015);
+
+  // Clutter: discs and rings on the wall (not behind the bore, whose see-through shows the wall)
+  // and boxes on the boards beside the slot.
+  auto colour = [&rng]
+  {
+    const double grey = rng.uniform(0.03, 0.9);
+    return cv::Vec3d(grey * rng.uniform(0.5, 1.0), grey * rng.uniform(0.5, 1.0), grey * rng.uniform(0.5, 1.0));
+  };
+  const int marks = rng.uniform(0, 9);
+  for (int i = 0; i < marks; ++i)
+  {
+    WallMark m;
+    m.radius = rng.uniform(0.01, 0.2);
+    m.inner_radius = chance(0.5) ? m.radius * rng.uniform(0.3, 0.9) : 0.0;
+    do
+    {
+      m.x = rng.uniform(-0.8, 0.8);
+      m.y = SpoolRenderer::kHoleHeight + rng.uniform(-0.4, 0.4);
+    } while (std::hypot(m.x, m.y - SpoolRenderer::kHoleHeight) < m.radius + 0.1);
+    m.colour = colour();
+    s.wall_marks.push_back(m);
+  }
+  const int boxes = rng.uniform(0, 4);
+  for (int i = 0; i < boxes; ++i)
+  {
+    ShelfBox b;
+    b.upper = chance(0.5);
+    b.width = rng.uniform(0.05, 0.3);
+    b.height = rng.uniform(0.04, b.upper ? 0.3 : 0.2);
+    b.depth = rng.uniform(0.05, 0.2);
+    b.z = rng.uniform(0.0, std::max(0.0, s.bore_length + s.wall_gap - b.depth));
+    // Boxes below stand clear of the target's flange; above the board nothing is in the way.
+    const double side = chance(0.5) ? 1.0 : -1.0;
+    b.x = b.upper ? rng.uniform(-0.7, 0.7) : side * (0.5 * s.flange_diameter + 0.5 * b.width + rng.uniform(0.0, 0.5));
+    b.colour = colour();
+    s.boxes.push_back(b);
+  }
+
+  // The puller rod reaches 12-30 cm ahead of the camera (the set may shorten it to keep the
+  // hole clear).
+  s.puller_rod_length = chance(0.8) ? rng.uniform(0.12, 0.3) : 0.0;
+  return s;
+}
+
 std::string groundTruthToJson(const GroundTruth& t)
 {
   std::ostringstream out;
@@ -968,8 +1337,13 @@ std::string groundTruthToJson(const GroundTruth& t)
   else
     out << "null";
   out << std::boolalpha << ", \"flange_half_visible\": " << t.flange_half_visible
-      << ", \"hole_in_view\": " << t.hole_in_view << ", \"bore_visible\": " << t.bore_visible
-      << ", \"hole_lit_fraction\": " << t.hole_lit_fraction;
+      << ", \"hole_in_view\": " << t.hole_in_view << ", \"hole_occluded\": " << t.hole_occluded
+      << ", \"bore_visible\": " << t.bore_visible << ", \"hole_lit_fraction\": " << t.hole_lit_fraction
+      << ", \"hole_lens\": ";
+  if (std::isfinite(t.hole_lens.x))
+    out << "{\"x\": " << t.hole_lens.x << ", \"y\": " << t.hole_lens.y << "}";
+  else
+    out << "null";
   writeField(out, "puller_miss", t.puller_miss);
   writeField(out, "axis_angle", t.axis_angle);
   out << ", \"aligned\": " << t.aligned << ", \"spool_centre_in_view\": " << t.spool_centre_in_view

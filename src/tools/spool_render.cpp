@@ -24,13 +24,15 @@ namespace
 {
 const char* const kUsage =
     "usage: spool_render --out DIR --width W --height H [--focal F] [--count N] [--seed S]\n"
-    "                    [--set main|approach|negatives]\n"
+    "                    [--set main|approach|negatives|hard]\n"
     "  --focal F   focal length in px (default: the thesis camera, 200 px at 120 rows)\n"
-    "  --count N   frames (default: main 500, approach 40, negatives 100)\n"
+    "  --count N   frames (default: main and hard 500, approach 40, negatives 100)\n"
     "  --seed S    the set is a function of the seed (default 1)\n"
     "  --set       main: spools at 50-110 cm and +-20 deg bearing plus ~15% negatives;\n"
     "              approach: one spool from 110 cm to 50 cm, ending aligned;\n"
-    "              negatives: empty slots and round objects that are not spools\n"
+    "              negatives: empty slots and round objects that are not spools;\n"
+    "              hard: main's poses with webcam effects (auto exposure, gain noise, MJPEG,\n"
+    "              blur), glossy ribbed faces, dark bores, clutter and the puller rod in view\n"
     "Writes DIR/frame_%05d.png, DIR/frame_%05d.json and DIR/camera_info.yaml.\n";
 
 struct Options
@@ -58,11 +60,13 @@ Options parseOptions(int argc, char** argv)
   o.count = line.positiveInteger("--count", 1000000, 0);
   o.seed = line.seed("--seed", o.seed);
   o.set = line.text("--set", o.set);
-  static const std::map<std::string, sv::FrameSet> kSets = {
-      {"main", sv::FrameSet::kMain}, {"approach", sv::FrameSet::kApproach}, {"negatives", sv::FrameSet::kNegatives}};
+  static const std::map<std::string, sv::FrameSet> kSets = {{"main", sv::FrameSet::kMain},
+                                                            {"approach", sv::FrameSet::kApproach},
+                                                            {"negatives", sv::FrameSet::kNegatives},
+                                                            {"hard", sv::FrameSet::kHard}};
   const auto set = kSets.find(o.set);
   if (set == kSets.end())
-    throw UsageError("--set: expected main, approach or negatives, got '" + o.set + "'");
+    throw UsageError("--set: expected main, approach, negatives or hard, got '" + o.set + "'");
   o.frame_set = set->second;
   if (o.out.empty())
     throw UsageError("--out is required");
@@ -71,7 +75,7 @@ Options parseOptions(int argc, char** argv)
   if (o.width < 32 || o.height < 32)
     throw UsageError("--width/--height: at least 32 px");
   if (o.count == 0)
-    o.count = o.set == "main" ? 500 : (o.set == "approach" ? 40 : 100);
+    o.count = o.set == "main" || o.set == "hard" ? 500 : (o.set == "approach" ? 40 : 100);
   return o;
 }
 
@@ -80,9 +84,7 @@ int run(int argc, char** argv)
   namespace fs = std::filesystem;
   const Options o = parseOptions(argc, argv);
   fs::create_directories(o.out);
-  sv::CameraIntrinsics camera = sv::CameraIntrinsics::thesisDefault(o.width, o.height);
-  if (o.focal > 0.0)
-    camera.fx = camera.fy = o.focal;
+  const sv::CameraIntrinsics camera = sv::setCamera(o.frame_set, cv::Size(o.width, o.height), o.focal);
   sv::saveCameraInfoYaml((fs::path(o.out) / "camera_info.yaml").string(), camera, "spool_render");
   const sv::SpoolRenderer renderer(camera);
   for (int i = 0; i < o.count; ++i)

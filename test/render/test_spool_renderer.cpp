@@ -362,3 +362,270 @@ TEST(SpoolRenderer, ObjectsAndNeighboursAppear)
   EXPECT_NEAR(gt.neighbours[1].distance, std::sqrt(0.4 * 0.4 + 0.06 * 0.06 + std::pow(depth + 0.01, 2)), 1e-9);
   EXPECT_TRUE(gt.spool_centre_in_view);
 }
+
+namespace
+{
+// FNV-1a over the image bytes.
+std::uint64_t checksum(const cv::Mat& image)
+{
+  std::uint64_t h = 1469598103934665603ULL;
+  const cv::Mat bytes = image.isContinuous() ? image : image.clone();
+  for (std::size_t i = 0; i < bytes.total() * bytes.elemSize(); ++i)
+    h = (h ^ bytes.data[i]) * 1099511628211ULL;
+  return h;
+}
+}  // namespace
+
+TEST(SpoolRenderer, OldScenesRenderAsBefore)
+{
+  // The main, approach and negatives sets are pinned by other tests and by recorded results:
+  // new realism knobs must default to the old look. Checksums recorded before the hard set.
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(320, 240));
+  const cv::Mat spool = renderer.render(sv::randomScene(sv::SceneKind::kSpool, 1000020), pose(0.7, -0.1, 0.03)).image;
+  const cv::Mat can = renderer.render(sv::randomScene(sv::SceneKind::kCan, 77), pose(0.9, 0.05)).image;
+  EXPECT_EQ(checksum(spool), 539582093479673736ULL);
+  EXPECT_EQ(checksum(can), 13798716118922067688ULL);
+}
+
+namespace
+{
+// The hard set's camera without the random parts: auto exposure to mid grey through a webcam
+// gamma, a bore lit only through its openings.
+sv::SceneParams webcamScene()
+{
+  sv::SceneParams s = cleanScene();
+  s.auto_exposure_target = 0.45;
+  s.gamma = 0.45;
+  s.bore_falloff = 0.01;
+  return s;
+}
+
+// The camera `distance` m from the face centre on a line `off_axis` rad right of the spool axis,
+// `height` m above it, looking at the face centre.
+sv::CameraPose offAxisPose(double distance, double off_axis, double height)
+{
+  const double lateral = distance * std::sin(off_axis);
+  const double planar = std::sqrt(distance * distance - lateral * lateral - height * height);
+  return pose(distance, lateral, -std::atan2(lateral, planar), std::atan2(height, planar), height);
+}
+
+// Mean grey of the annulus between `inner` and `outer` times the circle's semi-axes.
+double meanInAnnulus(const cv::Mat& img, const sv::ProjectedCircle& c, double inner, double outer)
+{
+  sv::ProjectedCircle big = c;
+  big.semi_major *= outer;
+  big.semi_minor *= outer;
+  sv::ProjectedCircle small = c;
+  small.semi_major *= inner;
+  small.semi_minor *= inner;
+  const double a_big = outer * outer;
+  const double a_small = inner * inner;
+  return (meanInEllipse(img, big, 0.0) * a_big - meanInEllipse(img, small, 0.0) * a_small) / (a_big - a_small);
+}
+}  // namespace
+
+TEST(SpoolRenderer, HardSceneKeepsTheShelfAndAddsTheWebcam)
+{
+  const sv::SceneParams main = sv::randomScene(sv::SceneKind::kSpool, 5);
+  const sv::SceneParams hard = sv::randomHardScene(sv::SceneKind::kSpool, 5);
+  EXPECT_EQ(hard.bore_length, main.bore_length);
+  EXPECT_EQ(hard.neighbours.size(), main.neighbours.size());
+  EXPECT_GT(hard.auto_exposure_target, 0.0);
+  EXPECT_GT(hard.bore_falloff, 0.0);
+  EXPECT_LT(hard.gamma, 1.0);
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(320, 240));
+  const sv::CameraPose p = pose(0.8, 0.05, -2 * kDeg);
+  const cv::Mat a = renderer.render(main, p).image;
+  const cv::Mat b = renderer.render(hard, p).image;
+  EXPECT_GT(cv::norm(a, b, cv::NORM_L1) / (a.total() * a.channels()), 10.0);
+  // Deterministic: same seed, same frame; another seed, another frame.
+  EXPECT_EQ(cv::norm(b, renderer.render(sv::randomHardScene(sv::SceneKind::kSpool, 5), p).image, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(b, renderer.render(sv::randomHardScene(sv::SceneKind::kSpool, 6), p).image, cv::NORM_L1), 0.0);
+
+  // Clutter boxes stand at or behind the face plane and beside the target's flange, so they
+  // never hide its face centre.
+  for (std::uint64_t seed = 1; seed <= 200; ++seed)
+    for (const sv::ShelfBox& box : sv::randomHardScene(sv::SceneKind::kSpool, seed).boxes)
+    {
+      EXPECT_GE(box.z, 0.0);
+      if (!box.upper)
+      {
+        EXPECT_GE(std::abs(box.x) - 0.5 * box.width, 0.175);
+      }
+    }
+}
+
+TEST(SpoolRenderer, AutoExposureLiftsABlackFaceToMidGrey)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(320, 240));
+  sv::SceneParams fixed = cleanScene();
+  fixed.wall_colour = cv::Vec3d(0.15, 0.15, 0.15);  // a dark wall: the face dominates the metering
+  sv::SceneParams automatic = webcamScene();
+  automatic.wall_colour = fixed.wall_colour;
+  const sv::CameraPose p = pose(0.6);
+  const sv::RenderedFrame dark = renderer.render(fixed, p);
+  const sv::RenderedFrame lifted = renderer.render(automatic, p);
+  const sv::ProjectedCircle& hole = *dark.truth.hole;
+  const double face_fixed = meanInAnnulus(grey(dark.image), hole, 3.0, 6.0);
+  const double face_auto = meanInAnnulus(grey(lifted.image), hole, 3.0, 6.0);
+  EXPECT_LT(face_fixed, 30.0);
+  EXPECT_GT(face_auto, 90.0);
+  EXPECT_LT(face_auto, 160.0);
+}
+
+TEST(SpoolRenderer, OffAxisTheBoreIsDarkerThanTheFace)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const sv::RenderedFrame frame = renderer.render(webcamScene(), offAxisPose(0.7, 12 * kDeg, 0.02));
+  ASSERT_TRUE(frame.truth.hole);
+  // "In view but dark": the detector is scored on finding this front rim.
+  EXPECT_TRUE(frame.truth.hole_in_view);
+  EXPECT_FALSE(frame.truth.bore_visible);
+  EXPECT_TRUE(std::isnan(frame.truth.hole_lens.x));
+  const cv::Mat img = grey(frame.image);
+  const sv::ProjectedCircle& hole = *frame.truth.hole;
+  const double bore = meanInEllipse(img, hole, 1.5);
+  const double face = meanInAnnulus(img, hole, 1.5, 2.5);
+  EXPECT_LT(bore, face - 30.0) << "bore " << bore << ", face " << face;
+
+  // The old bore (lit from the back all along) is lighter than the face: the kind renderer.
+  sv::SceneParams kind = webcamScene();
+  kind.bore_falloff = 0.0;
+  const cv::Mat kind_img = grey(renderer.render(kind, offAxisPose(0.7, 12 * kDeg, 0.02)).image);
+  EXPECT_GT(meanInEllipse(kind_img, hole, 1.5), meanInAnnulus(kind_img, hole, 1.5, 2.5));
+}
+
+TEST(SpoolRenderer, NearTheAxisOnlyTheParallaxLensIsBright)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const sv::RenderedFrame frame = renderer.render(webcamScene(), pose(0.55));  // 6 cm above the axis
+  ASSERT_TRUE(frame.truth.hole);
+  ASSERT_TRUE(frame.truth.bore_visible);
+  const cv::Mat img = grey(frame.image);
+  const sv::ProjectedCircle& hole = *frame.truth.hole;
+  const double face = meanInAnnulus(img, hole, 1.5, 2.5);
+  // Bright pixels inside the front rim: the wall seen through both openings.
+  double sum_u = 0.0;
+  double sum_v = 0.0;
+  int bright = 0;
+  int inside = 0;
+  for (int v = 0; v < img.rows; ++v)
+    for (int u = 0; u < img.cols; ++u)
+    {
+      if (std::hypot(u - hole.x, v - hole.y) > hole.r)
+        continue;
+      ++inside;
+      if (img.at<float>(v, u) < face + 40.0)
+        continue;
+      sum_u += u;
+      sum_v += v;
+      ++bright;
+    }
+  ASSERT_GT(bright, 20);
+  const cv::Point2d lens(sum_u / bright, sum_v / bright);
+  EXPECT_LT(lens.y, hole.y - 0.3 * hole.r);  // above the rim's centre: the camera looks down
+  EXPECT_LT(bright, 0.5 * inside);           // smaller than the opening
+  EXPECT_NEAR(static_cast<double>(bright) / inside, frame.truth.hole_lit_fraction, 0.08);
+  EXPECT_NEAR(lens.x, frame.truth.hole_lens.x, 1.0);
+  EXPECT_NEAR(lens.y, frame.truth.hole_lens.y, 1.5);
+  // The rest of the opening is the dark bore: darker than the face.
+  EXPECT_LT(bilinear(img, hole.x, hole.y + 0.7 * hole.r), face - 20.0);
+}
+
+TEST(SpoolRenderer, RaisedRibsShowBrightAndDarkRings)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  sv::SceneParams flat = webcamScene();
+  flat.ribs = true;
+  sv::SceneParams raised = flat;
+  raised.rib_slope = 0.7;
+  const sv::CameraPose p = pose(0.7);
+  const cv::Mat a = grey(renderer.render(flat, p).image);
+  const cv::Mat b = grey(renderer.render(raised, p).image);
+  const sv::ProjectedCircle hole = *renderer.groundTruth(flat, p).hole;
+  // Down the column above the axis, over the 11.5 cm rib and the bare face beside it.
+  const double px_per_m = hole.r / 0.018;
+  double flat_min = 255.0;
+  double flat_max = 0.0;
+  double raised_min = 255.0;
+  double raised_max = 0.0;
+  for (double r = 0.100; r <= 0.130; r += 0.2 / px_per_m)
+  {
+    const double v = hole.y - r * px_per_m;
+    flat_min = std::min(flat_min, bilinear(a, hole.x, v));
+    flat_max = std::max(flat_max, bilinear(a, hole.x, v));
+    raised_min = std::min(raised_min, bilinear(b, hole.x, v));
+    raised_max = std::max(raised_max, bilinear(b, hole.x, v));
+  }
+  EXPECT_LT(flat_max - flat_min, 12.0);
+  EXPECT_GT(raised_max - raised_min, 30.0);
+}
+
+TEST(SpoolRenderer, GlossyFaceShowsALampStreak)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(320, 240));
+  sv::SceneParams glossy = cleanScene();
+  glossy.gloss = 0.4;
+  glossy.gloss_lamp = cv::Vec3d(0.0, 1.0, -1.0);  // level with the axis: a horizontal streak
+  const sv::CameraPose p = pose(0.8, 0.0, 0.0, 0.0, 0.0);
+  const cv::Mat matte = grey(renderer.render(cleanScene(), p).image);
+  const cv::Mat shiny = grey(renderer.render(glossy, p).image);
+  const sv::ProjectedCircle flange = *renderer.groundTruth(glossy, p).flange;
+  // The streak crosses the face beside the hole, and leaves the face's top alone.
+  const double u = flange.x + 0.5 * flange.r;
+  EXPECT_GT(bilinear(shiny, u, flange.y) - bilinear(matte, u, flange.y), 40.0);
+  EXPECT_LT(std::abs(bilinear(shiny, u, flange.y - 0.8 * flange.r) - bilinear(matte, u, flange.y - 0.8 * flange.r)),
+            3.0);
+}
+
+TEST(SpoolRenderer, PullerRodOccupiesTheBottomCentre)
+{
+  const sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(320, 240);
+  const sv::SpoolRenderer renderer(k);
+  sv::SceneParams rod = cleanScene();
+  rod.puller_rod_length = 0.25;
+  const sv::CameraPose p = pose(0.8);
+  const sv::RenderedFrame without = renderer.render(cleanScene(), p);
+  const sv::RenderedFrame with = renderer.render(rod, p);
+  const cv::Mat a = grey(without.image);
+  const cv::Mat b = grey(with.image);
+  const int u = static_cast<int>(k.cx);
+  // Bottom centre: the neutral grey steel instead of the coloured shelf board.
+  const cv::Vec3b board = without.image.at<cv::Vec3b>(k.height - 2, u);
+  const cv::Vec3b steel = with.image.at<cv::Vec3b>(k.height - 2, u);
+  EXPECT_GT(std::abs(board[0] - board[2]), 20);
+  EXPECT_LT(std::abs(steel[0] - steel[2]), 3);
+  EXPECT_GT(std::abs(b.at<float>(k.height - 2, u) - a.at<float>(k.height - 2, u)), 10.0);
+  // Its tip's top edge: fy * (6 cm - radius) / 25 cm below the principal point; above it and
+  // in the bottom corners nothing changes.
+  const double tip_v = k.cy + k.fy * (0.06 - 0.0155) / 0.25;
+  EXPECT_EQ(b.at<float>(static_cast<int>(tip_v) - 3, u), a.at<float>(static_cast<int>(tip_v) - 3, u));
+  EXPECT_GT(std::abs(b.at<float>(static_cast<int>(tip_v) + 3, u) - a.at<float>(static_cast<int>(tip_v) + 3, u)), 5.0);
+  EXPECT_EQ(b.at<float>(k.height - 2, 2), a.at<float>(k.height - 2, 2));
+  EXPECT_FALSE(with.truth.hole_occluded);
+  EXPECT_TRUE(with.truth.hole_in_view);
+
+  // Long enough to cover the bore's line of sight, the rod hides the hole.
+  rod.puller_rod_length = 0.6;
+  const sv::GroundTruth hidden = renderer.groundTruth(rod, pose(0.7));
+  EXPECT_TRUE(hidden.hole_occluded);
+  EXPECT_FALSE(hidden.hole_in_view);
+  EXPECT_NE(sv::groundTruthToJson(hidden).find("\"hole_occluded\": true"), std::string::npos);
+}
+
+TEST(SpoolRenderer, PrincipalPointOffTheImageCentre)
+{
+  // Moving the principal point moves the picture with it, pixel for pixel, and the truth too.
+  const sv::CameraIntrinsics centred = sv::CameraIntrinsics::thesisDefault(320, 240);
+  sv::CameraIntrinsics shifted = centred;
+  shifted.cx += 7.0;
+  shifted.cy -= 5.0;
+  const sv::CameraPose p = pose(0.75, 0.03, 1 * kDeg);
+  const sv::RenderedFrame a = sv::SpoolRenderer(centred).render(cleanScene(), p);
+  const sv::RenderedFrame b = sv::SpoolRenderer(shifted).render(cleanScene(), p);
+  const cv::Rect inner(10, 10, 300, 220);
+  EXPECT_EQ(cv::norm(a.image(inner), b.image(inner + cv::Point(7, -5)), cv::NORM_INF), 0.0);
+  EXPECT_NEAR(b.truth.hole->x - a.truth.hole->x, 7.0, 1e-9);
+  EXPECT_NEAR(b.truth.flange->y - a.truth.flange->y, -5.0, 1e-9);
+  EXPECT_NEAR(b.truth.reference.x, shifted.cx, 1e-12);
+}

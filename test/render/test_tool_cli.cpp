@@ -210,7 +210,7 @@ TEST(SpoolRenderCli, BadOptionsExitTwoNamingTheOption)
       {"--width 64 --height 48", "--out is required"},
       {out + " --width 0 --height 48", "--width: expected a positive number, got '0'"},
       {out + " --width 64 --height 48 --count 1.5", "--count: expected an integer in [1, 1000000], got '1.5'"},
-      {out + " --width 64 --height 48 --set all", "--set: expected main, approach or negatives, got 'all'"},
+      {out + " --width 64 --height 48 --set all", "--set: expected main, approach, negatives or hard, got 'all'"},
       {out + " --width 64 --height 48 --seed -1", "--seed: expected a non-negative integer, got '-1'"},
       {out + " --width 16 --height 48", "--width/--height: at least 32 px"},
   };
