@@ -34,6 +34,12 @@ public:
   /// max_view_pitch up or down, which keeps the window small where it need not be large.
   cv::Size2d centreTolerance(const Circle& flange) const;
 
+  /// The hole radius (px) `flange`'s size implies: the known hole/flange diameter ratio.
+  double holeRadius(const Circle& flange) const
+  {
+    return ratio_ * flange.r_vertical;
+  }
+
   /// concentric_tolerance in px for this camera.
   double tolerancePx() const
   {

@@ -42,7 +42,10 @@ enum class MatchMode
 /// What makes a spool in mcht mode.
 enum class SpoolEvidence
 {
-  kHole,   ///< a flange with a concentric hole (a round thing without a bore is not a spool)
+  kHole,  ///< a flange with a concentric hole (a round thing without a bore is not a spool)
+  /// kHole, or where no flange has one, a strongly supported flange whose centre shows a disc of
+  /// the bore's size darker or brighter than the face (a bore too small or faint to fit)
+  kBore,
   kFlange  ///< the flange alone; the hole is reported when one passes (thesis: "BC or both")
 };
 enum class YawMode
@@ -73,7 +76,7 @@ struct PreprocessParams
 /// Hough stage (thesis §3.3.4, Rule 1). Radii of 0 are derived from the distance range.
 struct HoughParams
 {
-  double edge_threshold = 0.06;       ///< minimum gradient magnitude, fraction of full scale
+  double edge_threshold = 0.03;       ///< minimum gradient magnitude, fraction of full scale
   double hole_edge_threshold = 0.02;  ///< the same inside the hole window (the bore rim is faint)
   double sensitivity = 0.55;          ///< MATLAB-style: a flange needs (1 - sensitivity) of its rim
   double hole_sensitivity = 0.8;      ///< the same for the hole (a partly lit bore shows part of its rim)
@@ -92,7 +95,9 @@ struct HoughParams
 struct MatcherParams
 {
   MatchMode mode = MatchMode::kMcht;
-  SpoolEvidence spool_evidence = SpoolEvidence::kHole;
+  SpoolEvidence spool_evidence = SpoolEvidence::kBore;
+  double flange_only_score = 0.85;      ///< spool_evidence bore: least rim score of a flange without a hole rim
+  double bore_contrast = 0.05;          ///< spool_evidence bore: least bore/face contrast, fraction of full scale
   double concentric_tolerance = 0.005;  ///< rad, |hole centre - flange centre| per axis (4 px at f = 800 px)
   double hole_ratio_tolerance = 0.35;   ///< relative deviation from hole/flange diameter ratio
   double max_view_angle = 0.44;         ///< rad, widest view of the flange off its axis, sideways (~25 deg)

@@ -69,6 +69,11 @@ private:
   /// hole found in `hole_search` that passes the concentric rule; nullopt when none does.
   std::optional<SpoolMatch> matchSpool(const Circle& flange, const HoughSearch& hole_search,
                                        const HoughSearch& flange_search);
+  /// spool_evidence bore, when no flange has a concentric hole rim: the first candidate (in
+  /// order_) whose rim is (nearly) whole in view and scores at least flange_only_score, and
+  /// whose concentric window shows a disc of the bore's size that differs from the face around
+  /// it by bore_contrast.
+  std::optional<std::size_t> strongFlangeWithBore(const HoughSearch& hole_search) const;
 
   DetectorParams params_;
   Preprocessor preprocessor_;

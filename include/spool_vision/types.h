@@ -113,7 +113,7 @@ struct SpoolDetection
   double yaw = kNaN;             ///< rad, positive when the spool appears right of the reference
   double lateral_offset = kNaN;  ///< m, distance * tan(yaw)
   double tolerance = 0.0;        ///< m, t_f = (hole - puller) / 2
-  double confidence = 0.0;       ///< 0..1
+  double confidence = 0.0;       ///< 0..1: with a hole 0.5 + 0.5 * min(rim scores), flange alone 0.5 * its score
   Circle flange;
   Circle hole;
   cv::Point2d reference;  ///< px, where the puller axis appears

@@ -48,7 +48,7 @@ bool ConcentricMatcher::narrowHoleSearch(const Circle& flange, cv::Size image_si
   // Pixel centres are integers: the image spans -0.5 .. size - 0.5.
   search.center_window = cv::Rect2d(flange.x - left, flange.y - up, left + right + 1e-9, up + down + 1e-9) &
                          cv::Rect2d(-0.5, -0.5, image_size.width, image_size.height);
-  const double expected = ratio_ * flange.r_vertical;
+  const double expected = holeRadius(flange);
   const double spread = params_.hole_ratio_tolerance * expected;
   search.r_min = std::max({search.r_min, expected - spread, 1.5});
   search.r_max = std::min(search.r_max, (expected + spread) * backToFront(flange));
@@ -79,7 +79,7 @@ bool ConcentricMatcher::accepts(const Circle& flange, const Circle& hole) const
   const cv::Size2d tol = centreTolerance(flange);
   if (std::abs(hole.x - flange.x) > tol.width || std::abs(hole.y - flange.y) > tol.height)
     return false;
-  const double expected = ratio_ * flange.r_vertical;
+  const double expected = holeRadius(flange);
   return std::abs(hole.r - expected) <= params_.hole_ratio_tolerance * expected;
 }
 

@@ -120,8 +120,13 @@ std::vector<ParamSpec> buildSpecs()
       // Concentric matcher (thesis Eq. 3.1, Rule 2)
       choice<MatchMode>("mode", FIELD(matcher.mode), {"mcht", "cht"},
                         "mcht: hole must be concentric with the flange; cht: no constraint"),
-      choice<SpoolEvidence>("spool_evidence", FIELD(matcher.spool_evidence), {"hole", "flange"},
-                            "mcht: hole = a spool needs a concentric hole; flange = the flange alone counts (thesis)"),
+      choice<SpoolEvidence>("spool_evidence", FIELD(matcher.spool_evidence), {"hole", "bore", "flange"},
+                            "mcht: hole = a spool needs a concentric hole rim; bore = that, or a strong flange whose "
+                            "centre shows the bore as a darker or brighter disc; flange = the flange alone (thesis)"),
+      number("flange_only_score", FIELD(matcher.flange_only_score), 0.0, 1.0, "",
+             "spool_evidence bore: least rim score of a flange taken without a hole rim"),
+      number("bore_contrast", FIELD(matcher.bore_contrast), 0.0, 1.0, "fraction of full scale",
+             "spool_evidence bore: least difference between the bore disc and the face around it"),
       number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 0.1, "rad",
              "hole centre within this view angle of the flange centre on each axis (thesis: 2 px at f = 200 px)"),
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",

@@ -372,12 +372,18 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
   double best_vis = 0.0;
   std::vector<double>& scores = scores_;
   scores.assign(static_cast<size_t>(bins), 0.0);
+  // A centre known to `slack` px spreads a rim over as many bins: each radius sums the bins
+  // within half of that (at least one each side), so a big rim found from a coarse cell is not
+  // outscored by a sharper ring inside it.
+  const int half = std::max(1, static_cast<int>(std::lround(0.5 * slack)));
   for (int i = 1; i + 1 < bins; ++i)
   {
     const double r = lo + i;
     if (r < search.r_min || r > search.r_max)
       continue;
-    const double support = histogram_[i - 1] + histogram_[i] + histogram_[i + 1];
+    double support = 0.0;
+    for (int k = std::max(0, i - half); k <= std::min(bins - 1, i + half); ++k)
+      support += histogram_[static_cast<size_t>(k)];
     if (support < 3.0)
       continue;
     const double vis = visibleRimFraction(peak.x, peak.y, r, image_size);
@@ -385,7 +391,8 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
     const double can_show = back.growth > 0.0 ? visibleRimFraction(peak.x, peak.y, r, image_size, back) : vis;
     if (vis < search.min_visible_fraction || can_show < 0.5 * search.min_visible_fraction)
       continue;
-    scores[static_cast<size_t>(i)] = support / (2.0 * kPi * r * can_show);
+    // Capped: a rim is at most fully supported; a double edge (a raised rib, noise) is no more.
+    scores[static_cast<size_t>(i)] = std::min(1.0, support / (2.0 * kPi * r * can_show));
     best_score = std::max(best_score, scores[static_cast<size_t>(i)]);
   }
   if (best_score <= 0.0)

@@ -1,6 +1,7 @@
 #include "spool_vision/spool_detector.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
@@ -114,7 +115,8 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
   {
     result.detected = true;
     result.flange = flange;
-    result.confidence = flange.score;
+    // Both rims: 0.5 and up with the weaker's support; the flange alone: at most 0.5.
+    result.confidence = hole ? 0.5 + 0.5 * std::min(flange.score, hole->score) : 0.5 * flange.score;
     result.hole_detected = hole.has_value();
     if (hole)
       result.hole = *hole;
@@ -167,8 +169,117 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     return;
   }
   holes_.clear();
-  if (params_.matcher.spool_evidence == SpoolEvidence::kFlange && !order_.empty())
-    take(flanges_[order_.front()], std::nullopt);
+  if (order_.empty())
+    return;
+  switch (params_.matcher.spool_evidence)
+  {
+    case SpoolEvidence::kHole:
+      break;
+    case SpoolEvidence::kBore:
+      if (const auto i = strongFlangeWithBore(hole_search))
+        take(flanges_[*i], std::nullopt);
+      break;
+    case SpoolEvidence::kFlange:
+      take(flanges_[order_.front()], std::nullopt);
+      break;
+  }
+}
+
+namespace
+{
+// How much a disc of radius r about `centre` in `gray` differs from the face around it, as a
+// fraction of full scale: the smallest difference between its mean and the means of the four
+// quarters of the ring 1.3 r .. 2 r, when all four differ the same way (0 otherwise). A bore
+// shows as a disc darker (unlit) or brighter (lit) than the face on every side, even where it is
+// too small or faint for its rim to be fitted; a mark beside it changes one quarter only.
+double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
+{
+  const double inner2 = 0.8 * 0.8 * r * r;
+  const double ring_min2 = 1.3 * 1.3 * r * r;
+  const double ring_max2 = 4.0 * r * r;
+  const int x0 = std::max(0, cvFloor(centre.x - 2.0 * r));
+  const int x1 = std::min(gray.cols - 1, cvCeil(centre.x + 2.0 * r));
+  const int y0 = std::max(0, cvFloor(centre.y - 2.0 * r));
+  const int y1 = std::min(gray.rows - 1, cvCeil(centre.y + 2.0 * r));
+  double in_sum = 0.0;
+  int in_n = 0;
+  std::array<double, 4> ring_sum{};
+  std::array<int, 4> ring_n{};
+  for (int y = y0; y <= y1; ++y)
+  {
+    const uchar* row = gray.ptr<uchar>(y);
+    const double dy = y - centre.y;
+    for (int x = x0; x <= x1; ++x)
+    {
+      const double dx = x - centre.x;
+      const double d2 = dx * dx + dy * dy;
+      if (d2 <= inner2)
+      {
+        in_sum += row[x];
+        ++in_n;
+      }
+      else if (d2 >= ring_min2 && d2 <= ring_max2)
+      {
+        const std::size_t q = (dx < 0.0 ? 1u : 0u) | (dy < 0.0 ? 2u : 0u);
+        ring_sum[q] += row[x];
+        ++ring_n[q];
+      }
+    }
+  }
+  if (in_n == 0)
+    return 0.0;
+  const double in_mean = in_sum / in_n;
+  double lowest = 1.0;
+  int darker = 0;
+  for (std::size_t q = 0; q < 4; ++q)
+  {
+    if (ring_n[q] == 0)
+      return 0.0;  // a quarter off the image: not judged
+    const double d = ring_sum[q] / ring_n[q] - in_mean;
+    darker += d > 0.0 ? 1 : -1;
+    lowest = std::min(lowest, std::abs(d) / 255.0);
+  }
+  return std::abs(darker) == 4 ? lowest : 0.0;
+}
+}  // namespace
+
+std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch& hole_search) const
+{
+  for (const std::size_t i : order_)
+  {
+    const Circle& flange = flanges_[i];
+    HoughSearch search = hole_search;
+    // Strong evidence: (nearly) the whole rim in view and supported; a rim cut by the border
+    // leaves room for neighbours' back flanges and shelf arcs.
+    if (flange.score < params_.matcher.flange_only_score ||
+        flange.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
+        !matcher_.narrowHoleSearch(flange, preprocessed_.size(), search))
+      continue;
+    // The bore's size is known from the flange; its centre anywhere in the concentric window,
+    // sampled at a quarter of its radius (at most 7 x 7 places). The contrast must peak inside
+    // the window: one growing towards its border is a mark beside the bore's place.
+    const double r = matcher_.holeRadius(flange);
+    const cv::Rect2d& w = search.center_window;
+    const int nx = std::min(6, static_cast<int>(w.width / std::max(0.25 * r, 0.5)));
+    const int ny = std::min(6, static_cast<int>(w.height / std::max(0.25 * r, 0.5)));
+    double best = 0.0;
+    bool on_border = false;
+    for (int iy = 0; iy <= ny; ++iy)
+      for (int ix = 0; ix <= nx; ++ix)
+      {
+        const cv::Point2d at(w.x + (nx > 0 ? ix * w.width / nx : 0.5 * w.width),
+                             w.y + (ny > 0 ? iy * w.height / ny : 0.5 * w.height));
+        const double contrast = discContrast(preprocessed_, at, r);
+        if (contrast > best)
+        {
+          best = contrast;
+          on_border = (nx > 1 && (ix == 0 || ix == nx)) || (ny > 1 && (iy == 0 || iy == ny));
+        }
+      }
+    if (best >= params_.matcher.bore_contrast && !on_border)
+      return i;
+  }
+  return std::nullopt;
 }
 
 std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const HoughSearch& hole_search,

@@ -176,6 +176,47 @@ TEST(SpoolDetector, MchtRejectsAFlangeWhoseOnlyHoleIsOffCentreWhereChtAcceptsIt)
   EXPECT_NEAR(b.hole.x, s.x + 30, 1.0);
 }
 
+TEST(SpoolDetector, AStrongFlangeWhoseBoreShowsOnlyAsADarkBlurIsASpoolWithLowConfidence)
+{
+  // 160x120 at 1.1 m: a dark bore 3.3 px in radius under a 2.5 px blur has no clean rim (a
+  // 60-level step spread over 5 px), but it is a darker disc in the face on every side.
+  const DrawnSpool s = spoolAt(kQqvga, 1.1, 0.0, 0.06);
+  spool_vision::test::SceneStyle style;
+  style.flange = 120;
+  style.hole = 60;
+  cv::Mat img;
+  cv::GaussianBlur(drawScene({160, 120}, {s}, style), img, cv::Size(), 1.0);
+  cv::Mat blurred_bore = img.clone();
+  cv::Mat gray = drawScene({160, 120}, {{s.x, s.y, s.flange_r, 0.0}}, style);
+  cv::GaussianBlur(gray, gray, cv::Size(), 1.0);
+  cv::GaussianBlur(img, blurred_bore, cv::Size(), 2.5);
+  // The face from the sharp image, the bore region from the strongly blurred one.
+  cv::Mat mask(img.size(), CV_8UC1, cv::Scalar(0));
+  cv::circle(mask, {cvRound(s.x), cvRound(s.y)}, cvRound(3 * s.hole_r), cv::Scalar(255), cv::FILLED);
+  blurred_bore.copyTo(gray, mask);
+
+  // Hole edges at 0.1 of full scale (a 13-level step per px): the blurred rim stays under it.
+  DetectorParams bore;
+  bore.hough.hole_edge_threshold = 0.1;
+  DetectorParams hole_only = bore;
+  hole_only.matcher.spool_evidence = spool_vision::SpoolEvidence::kHole;
+  const SpoolDetection strict = SpoolDetector(hole_only).detect(gray, PixelFormat::kBgr8);
+  ASSERT_FALSE(strict.hole_detected) << "the bore's rim must be too faint to fit for this test";
+  EXPECT_FALSE(strict.detected);
+
+  const SpoolDetection d = SpoolDetector(bore).detect(gray, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  EXPECT_FALSE(d.hole_detected);
+  EXPECT_NEAR(d.flange.x, s.x, 1.0);
+  EXPECT_LE(d.confidence, 0.5);
+  EXPECT_GT(d.confidence, 0.4);  // 0.5 x a rim supported over 80% or more
+
+  // The same flange without any bore (a plate) is no spool.
+  cv::Mat plate = drawScene({160, 120}, {{s.x, s.y, s.flange_r, 0.0}}, style);
+  cv::GaussianBlur(plate, plate, cv::Size(), 1.0);
+  EXPECT_FALSE(SpoolDetector(bore).detect(plate, PixelFormat::kBgr8).detected);
+}
+
 TEST(SpoolDetector, NothingOnAnEmptyShelf)
 {
   SpoolDetector detector;
