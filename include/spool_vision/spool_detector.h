@@ -74,12 +74,15 @@ private:
   /// whose concentric window shows a disc of the bore's size that differs from the face around
   /// it by bore_contrast.
   std::optional<std::size_t> strongFlangeWithBore(const HoughSearch& hole_search) const;
+  /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
+  void findLens(SpoolDetection& result);
 
   DetectorParams params_;
   Preprocessor preprocessor_;
   EdgeDetector edge_detector_;
   HoughAccumulator flange_hough_;
   HoughAccumulator hole_hough_;
+  HoughAccumulator lens_hough_;  ///< its own: a shared one would be resized every frame
   ConcentricMatcher matcher_;
   std::optional<CameraIntrinsics> camera_;
   std::optional<SpoolGeometry> geometry_;
@@ -91,6 +94,7 @@ private:
   std::vector<Circle> flanges_;
   std::vector<Circle> holes_;         ///< hole candidates of the target (or of the last search)
   std::vector<Circle> target_holes_;  ///< the best candidate's while the others are searched
+  std::vector<Circle> lenses_;
   std::vector<std::size_t> order_;
 };
 

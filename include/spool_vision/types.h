@@ -115,7 +115,12 @@ struct SpoolDetection
   double tolerance = 0.0;        ///< m, t_f = (hole - puller) / 2
   double confidence = 0.0;       ///< 0..1: with a hole 0.5 + 0.5 * min(rim scores), flange alone 0.5 * its score
   Circle flange;
-  Circle hole;
+  Circle hole;  ///< the bore's front rim
+  /// Near the spool axis the lit wall shows through the bore only where its front and back
+  /// openings overlap: a bright lens inside the front rim, shifted off its centre by the parallax
+  /// of the ~20 cm bore (thesis Fig. 3.3: the two rims share a centre only on the axis).
+  bool lens_detected = false;
+  Circle lens;
   cv::Point2d reference;  ///< px, where the puller axis appears
   double time_ms = 0.0;   ///< detector processing time for this frame
 };

@@ -166,6 +166,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
   {
     std::swap(holes_, target_holes_);
     take(best->flange, best->hole);
+    findLens(result);
     return;
   }
   holes_.clear();
@@ -183,6 +184,31 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
       take(flanges_[order_.front()], std::nullopt);
       break;
   }
+}
+
+void SpoolDetector::findLens(SpoolDetection& result)
+{
+  // A bright disc inside the front rim, smaller than it, its centre within half the rim's radius.
+  const Circle& rim = result.hole;
+  HoughSearch search;
+  search.polarity = Polarity::kBright;
+  search.min_score = 1.0 - params_.hough.hole_sensitivity;
+  search.min_visible_fraction = params_.hough.min_visible_fraction;
+  search.max_circles = 2;
+  search.r_min = std::max(1.0, 0.3 * rim.r);
+  search.r_max = 0.95 * rim.r;
+  search.center_window = cv::Rect2d(rim.x - 0.5 * rim.r, rim.y - 0.5 * rim.r, rim.r, rim.r);
+  const cv::Rect window(cvFloor(rim.x - rim.r - 2.0), cvFloor(rim.y - rim.r - 2.0), cvCeil(2.0 * rim.r) + 5,
+                        cvCeil(2.0 * rim.r) + 5);
+  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+  lens_hough_.detect(hole_edges_, preprocessed_.size(), search, lenses_);
+  for (const Circle& lens : lenses_)
+    if (std::hypot(lens.x - rim.x, lens.y - rim.y) + lens.r <= 1.1 * rim.r + 1.0)  // touching it inside
+    {
+      result.lens_detected = true;
+      result.lens = lens;
+      return;
+    }
 }
 
 namespace

@@ -134,6 +134,8 @@ int run(int argc, char** argv)
           .add("lateral_offset", d.lateral_offset, 5)
           .addRaw("flange", circleJson(d.detected, d.flange))
           .addRaw("hole", circleJson(d.hole_detected, d.hole))
+          .addRaw("lens", circleJson(d.lens_detected, d.lens))
+          .add("confidence", d.confidence, 3)
           .addRaw("reference", JsonObject().add("x", d.reference.x, 2).add("y", d.reference.y, 2).str())
           .add("time_ms", d.time_ms, 3);
     }

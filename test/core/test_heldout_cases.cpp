@@ -28,8 +28,9 @@ const std::string kCases = std::string(SPOOL_TEST_DATA_DIR) + "/heldout_v1/";
 
 struct Truth
 {
-  cv::Point3d flange;  ///< x, y, r in px at 640x480
-  cv::Point3d hole;    ///< the bore's front rim
+  cv::Point3d flange;    ///< x, y, r in px at 640x480
+  cv::Point3d hole;      ///< the bore's front rim
+  double open_fraction;  ///< share of the bore that shows the wall behind
 };
 
 Truth truthOf(const std::string& name)
@@ -46,7 +47,7 @@ Truth truthOf(const std::string& name)
       const YAML::Node c = frame["target"][key];
       return cv::Point3d(c["x"].as<double>(), c["y"].as<double>(), c["r"].as<double>());
     };
-    return {circle("flange"), circle("hole")};
+    return {circle("flange"), circle("hole"), frame["target"]["hole"]["open_fraction"].as<double>()};
   }
   ADD_FAILURE() << name << " is not in truth.jsonl";
   return {};
@@ -96,6 +97,20 @@ void expectTarget(const std::string& name, const cv::Mat& image, double hole_tol
   ASSERT_TRUE(d.hole_detected);
   EXPECT_LE(std::hypot(d.hole.x - scaled(t.hole.x, width), d.hole.y - scaled(t.hole.y, width)), hole_tol);
   EXPECT_NEAR(d.hole.r, t.hole.z * s, hole_tol);
+  if (width < 640)
+    return;
+  // Where the bore shows through, the lit lens lies inside the front rim, higher (the camera is
+  // above the bore axis, so the back opening appears higher) and smaller; a dark bore has none.
+  if (t.open_fraction > 0.3)
+  {
+    ASSERT_TRUE(d.lens_detected);
+    EXPECT_LT(d.lens.y, d.hole.y - 2.0);
+    EXPECT_LT(d.lens.r, d.hole.r - 2.0);
+  }
+  else if (t.open_fraction == 0.0)
+  {
+    EXPECT_FALSE(d.lens_detected);
+  }
 }
 
 class HeldoutCase : public ::testing::TestWithParam<const char*>
