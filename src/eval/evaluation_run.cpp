@@ -1,5 +1,5 @@
-// The evaluation run: renders each setup's sets once, then runs the configuration as loaded, the
-// thesis' variants and the controlled poses on those frames.
+// The evaluation run: renders each set once per frame size, then runs each setup of that size
+// (configuration as loaded, per group of sets), the thesis' variants and the controlled poses.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -174,6 +174,37 @@ void measurePoses(const Setup& setup, const std::vector<PoseSpec>& poses, int re
       progress("controlled poses", static_cast<int>(i + 1), static_cast<int>(poses.size()));
   }
 }
+// The setup's result on `group`: its share of each set (the first counts.of(set) frames of
+// `rendered`) scored, the slowest frame and the baseline's time on the same frames. `frames` and
+// `scores` receive what was scored, for the analyses.
+GroupResult scoreGroup(const Setup& setup, const SetGroup& group,
+                       const std::map<FrameSet, std::vector<RenderedFrame>>& rendered, SpoolDetector& detector,
+                       HoughCirclesBaseline& baseline, std::vector<RenderedFrame>& frames,
+                       std::vector<FrameScore>& scores)
+{
+  std::vector<std::pair<FrameSet, int>> origin;  // set and index of each frame, to name the slowest
+  frames.clear();
+  for (FrameSet set : group.sets)
+  {
+    const std::vector<RenderedFrame>& all = rendered.at(set);
+    const int count = std::min(setup.counts.of(set), static_cast<int>(all.size()));
+    for (int i = 0; i < count; ++i)
+    {
+      frames.push_back(all[static_cast<size_t>(i)]);
+      origin.emplace_back(set, i);
+    }
+  }
+  scores = evaluate(detector, frames);
+  GroupResult result;
+  result.metrics = summarize(scores);
+  result.frames = static_cast<int>(frames.size());
+  result.worst = worstFrame(detector, frames, scores);
+  if (!frames.empty())
+    result.worst_frame =
+        setName(origin[result.worst.index].first) + " #" + std::to_string(origin[result.worst.index].second);
+  result.baseline_ms = baselineMedianMs(baseline, frames);
+  return result;
+}
 }  // namespace
 
 QualityBars QualityBars::forDefault(cv::Size size)
@@ -306,35 +337,16 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
       std::vector<FrameScore> first_group_scores;
       for (size_t g = 0; g < config.groups.size(); ++g)
       {
-        // The setup's share of each set: the first counts.of(set) frames.
         std::vector<RenderedFrame> frames;
-        std::vector<std::pair<FrameSet, int>> origin;  // set and index of each frame, for the worst one
-        for (FrameSet set : config.groups[g].sets)
-        {
-          const std::vector<RenderedFrame>& all = rendered[set];
-          const int count = std::min(setup.counts.of(set), static_cast<int>(all.size()));
-          for (int i = 0; i < count; ++i)
-          {
-            frames.push_back(all[static_cast<size_t>(i)]);
-            origin.emplace_back(set, i);
-          }
-        }
+        std::vector<FrameScore> scores;
         step("score " + config.groups[g].name)("", 0, 1);
-        const std::vector<FrameScore> scores = evaluate(detector, frames);
-        GroupResult group;
-        group.metrics = summarize(scores);
-        group.frames = static_cast<int>(frames.size());
-        group.worst = worstFrame(detector, frames, scores);
-        if (!frames.empty())
-          group.worst_frame =
-              setName(origin[group.worst.index].first) + " #" + std::to_string(origin[group.worst.index].second);
-        group.baseline_ms = baselineMedianMs(baseline, frames);
+        const GroupResult group = scoreGroup(setup, config.groups[g], rendered, detector, baseline, frames, scores);
         step("score " + config.groups[g].name)("", 1, 1);
         result.setups[s].per_group.push_back(group);
         if (g == 0)
         {
           first_group_frames = std::move(frames);
-          first_group_scores = scores;
+          first_group_scores = std::move(scores);
         }
       }
       if (!setup.analyses)
