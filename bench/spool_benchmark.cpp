@@ -96,7 +96,8 @@ const char* toString(Stress kind)
 
 struct Frames
 {
-  sv::CameraIntrinsics camera;
+  std::vector<sv::CameraIntrinsics> cameras;  ///< each set's (the stress frames use the main set's)
+  std::vector<size_t> camera_of;              ///< per frame, its index in `cameras`
   std::vector<cv::Mat> images;
   std::vector<std::string> names;  ///< "main #3", "stress beads"
   int stress_first = 0;            ///< index of the first stress frame
@@ -110,15 +111,19 @@ const Frames& framesAt(cv::Size size)
   Frames& f = it->second;
   if (!fresh)
     return f;
-  f.camera = sv::CameraIntrinsics::thesisDefault(size.width, size.height);
-  const sv::SpoolRenderer renderer(f.camera);
   for (const auto& [set, name, count] :
        {std::tuple(sv::FrameSet::kMain, "main", kMainFrames), std::tuple(sv::FrameSet::kHard, "hard", kHardFrames)})
   {
-    const std::vector<sv::RenderedFrame> rendered = sv::renderSet(renderer, set, kSeed, count);
+    const sv::CameraIntrinsics camera = sv::renderCamera(set, size);
+    const auto known = std::find(f.cameras.begin(), f.cameras.end(), camera);
+    const size_t index = static_cast<size_t>(known - f.cameras.begin());
+    if (known == f.cameras.end())
+      f.cameras.push_back(camera);
+    const std::vector<sv::RenderedFrame> rendered = sv::renderSet(sv::SpoolRenderer(camera), set, kSeed, count);
     for (size_t i = 0; i < rendered.size(); ++i)
     {
       f.images.push_back(rendered[i].image);
+      f.camera_of.push_back(index);
       f.names.push_back(std::string(name) + " #" + std::to_string(i));
     }
   }
@@ -126,6 +131,7 @@ const Frames& framesAt(cv::Size size)
   for (Stress kind : {Stress::kBeads, Stress::kNoise, Stress::kChecker})
   {
     f.images.push_back(stressFrame(kind, size));
+    f.camera_of.push_back(0);
     f.names.push_back(std::string("stress ") + toString(kind));
   }
   return f;
@@ -203,17 +209,22 @@ cv::Size sizeOf(const benchmark::State& state)
 void spoolDetector(benchmark::State& state)
 {
   const Frames& frames = framesAt(sizeOf(state));
-  sv::SpoolDetector detector;
-  detector.setCamera(frames.camera);
+  // One detector per camera: a camera change rebuilds the geometry inside the timed detect(),
+  // which a stream with one camera never does.
+  std::vector<sv::SpoolDetector> detectors(frames.cameras.size());
+  for (size_t c = 0; c < frames.cameras.size(); ++c)
+    detectors[c].setCamera(frames.cameras[c]);
   timePasses(state, "SpoolDetector", frames,
-             [&](size_t i) { return detector.detect(frames.images[i], sv::PixelFormat::kBgr8).detected; });
+             [&](size_t i)
+             { return detectors[frames.camera_of[i]].detect(frames.images[i], sv::PixelFormat::kBgr8).detected; });
 }
 
 void houghCircles(benchmark::State& state)
 {
   const Frames& frames = framesAt(sizeOf(state));
-  // The radius ranges the detector searches with its defaults at this size.
-  sv::HoughCirclesBaseline baseline(sv::searchRadii(sv::DetectorParams(), frames.camera));
+  // The radius ranges the detector searches with its defaults at this size (they follow the
+  // focal length, which the sets share).
+  sv::HoughCirclesBaseline baseline(sv::searchRadii(sv::DetectorParams(), frames.cameras.front()));
   timePasses(state, "HoughCircles", frames,
              [&](size_t i)
              {

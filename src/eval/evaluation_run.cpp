@@ -207,6 +207,12 @@ GroupResult scoreGroup(const Setup& setup, const SetGroup& group,
 }
 }  // namespace
 
+CameraIntrinsics renderCamera(FrameSet, cv::Size size)
+{
+  // Until render-hard's setCamera(set, size) is merged: then this returns setCamera(set, size).
+  return CameraIntrinsics::thesisDefault(size.width, size.height);
+}
+
 QualityBars QualityBars::forDefault(cv::Size size)
 {
   // DESIGN.md §7 for every resolution the webcam streams.
@@ -315,14 +321,13 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
       if (config.setups[s].size == size)
         of_size.push_back(s);
     const std::string size_name = std::to_string(size.width) + "x" + std::to_string(size.height);
-    const SpoolRenderer renderer(CameraIntrinsics::thesisDefault(size.width, size.height));
     std::map<FrameSet, std::vector<RenderedFrame>> rendered;
     for (FrameSet set : sets)
     {
       int count = 0;
       for (size_t s : of_size)
         count = std::max(count, config.setups[s].counts.of(set));
-      rendered[set] = renderSet(renderer, set, config.seed, count,
+      rendered[set] = renderSet(SpoolRenderer(renderCamera(set, size)), set, config.seed, count,
                                 labelled(progress, size_name + ": render " + setName(set) + " set"));
     }
 
@@ -332,7 +337,9 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
       const Setup& setup = config.setups[s];
       auto step = [&](const std::string& what) { return labelled(progress, setup.name + ": " + what); };
       SpoolDetector detector(setup.params);
-      HoughCirclesBaseline baseline(searchRadii(setup.params, renderer.camera()));
+      // The radii follow the focal length, the same for every set of a size.
+      HoughCirclesBaseline baseline(
+          searchRadii(setup.params, CameraIntrinsics::thesisDefault(size.width, size.height)));
       std::vector<RenderedFrame> first_group_frames;
       std::vector<FrameScore> first_group_scores;
       for (size_t g = 0; g < config.groups.size(); ++g)
