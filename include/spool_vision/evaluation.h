@@ -27,7 +27,7 @@ enum class FrameSet
   kMain,       ///< spools at 50-110 cm and +-20 deg bearing, about 15% negatives mixed in
   kApproach,   ///< one spool from 110 cm to 50 cm, ending aligned
   kNegatives,  ///< empty slots, plates, tape rolls and cans (neighbour spools may stand beside)
-  kHard,       ///< real-webcam effects (DESIGN.md §7); owned by the renderer's branch render-hard
+  kHard,       ///< main's poses plus camera heights 0-8 cm, with real-webcam effects (hardScene)
 };
 
 /// The camera `distance` m from the slot's flange centre, seeing it at `bearing` rad off the
