@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The evaluation report: installs what is missing, builds spool_eval, renders the labelled sets
-# and writes REPORT_DIR/report.md with its PNG charts (DESIGN.md §7 bars and the thesis'
-# chapter 4 analyses). The headline table goes to stdout, progress to stderr.
-#   scripts/eval.sh [REPORT_DIR] [spool_eval options, e.g. --quick, --count N, --require-bars]
+# and writes REPORT_DIR/report.md with its PNG charts (DESIGN.md §7 bars per resolution and set,
+# and the thesis' chapter 4 analyses). The headline tables go to stdout, progress to stderr.
+#   scripts/eval.sh [REPORT_DIR] [spool_eval options, e.g. --quick, --count N, --sizes WxH,...,
+#                   --require-bars]
 #   REPORT_DIR defaults to build/eval_report (git-ignored).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -18,7 +19,7 @@ source "$root/scripts/env.sh"
 
 status=0
 "$SPOOL_WS/devel/lib/spool_vision/spool_eval" --out "$out" "$@" || status=$?
-# 3: it ran, and a 640x480 bar failed under --require-bars.
+# 3: it ran, and a default.yaml bar failed under --require-bars.
 if [ "$status" -eq 0 ] || [ "$status" -eq 3 ]; then
   echo "eval: report in $out/report.md"
 fi

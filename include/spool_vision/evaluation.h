@@ -73,9 +73,23 @@ std::optional<SpoolTruth> targetSpool(const GroundTruth& truth);
 /// rim's centre and its radius within 10%.
 bool flangeMatches(const ProjectedCircle& truth, const Circle& found);
 
-/// A found hole is on the bore when its centre lies within max(2 px, 0.25 r) of the opening's
-/// centre and its radius within max(1 px, 25%): holes are a few pixels wide at 160x120.
-bool holeMatches(const ProjectedCircle& truth, const Circle& found);
+/// How near the bore's front rim a found hole must be: centre within max(centre_px,
+/// centre_fraction r), radius within max(radius_px, radius_fraction r).
+struct HoleTolerance
+{
+  double centre_px = 0.0;
+  double centre_fraction = 0.0;
+  double radius_px = 0.0;
+  double radius_fraction = 0.0;
+};
+
+/// The tolerance at the camera's resolution. From 480 rows up (640x480, 1280x720) DESIGN.md §7's
+/// "within 1 px at 640x480", scaled with the focal length so that it is the same angle (1.5 px at
+/// 1280x720); below that, where holes are a few pixels wide, max(2 px, 0.25 r) for the centre and
+/// max(1 px, 25%) for the radius.
+HoleTolerance holeTolerance(const CameraIntrinsics& camera);
+
+bool holeMatches(const ProjectedCircle& truth, const Circle& found, const HoleTolerance& tolerance);
 
 /// The bar's working range: 50-110 cm and +-20 deg bearing.
 constexpr double kWorkingDistanceMin = 0.5;
@@ -91,6 +105,7 @@ struct FrameScore
   bool has_target = false;          ///< some spool centre in view
   bool flange_eligible = false;     ///< target: half its rim in view, in the working range
   bool hole_eligible = false;       ///< flange_eligible, slot spool, bore shows through, opening in view
+  bool hole_dark_eligible = false;  ///< flange_eligible, slot spool, opening in view, bore dark
   bool neighbours_in_view = false;  ///< another spool centre in view beside the target
   bool detected = false;            ///< the detector reported a flange
   bool correct = false;             ///< ... on the target
@@ -98,6 +113,8 @@ struct FrameScore
   bool hole_reported = false;       ///< the detector reported a hole
   bool hole_judged = false;         ///< its hole truth is known (target in the slot, or no target)
   bool hole_correct = false;        ///< correct flange and a hole on the slot spool's bore
+  double hole_centre_error = kNaN;  ///< px, reported hole to the front rim, correct flanges on the slot spool
+  double hole_radius_error = kNaN;  ///< px, |found - true|, same frames
   double distance_error = kNaN;     ///< (measured - true) / true, correct detections only
   double yaw_error = kNaN;          ///< rad, measured - true, correct detections only
   double time_ms = 0.0;             ///< the detector's own time
@@ -137,24 +154,44 @@ Spread spreadOf(const std::vector<double>& values);
 /// The §7 metrics of a scored set.
 struct Metrics
 {
-  Rate flange_found;  ///< correct / flange_eligible
-  Rate hole_found;    ///< hole_correct / hole_eligible (the thesis' "spool detected": BC and SC)
-  Rate false_spool;   ///< detected / frames without a spool centre in view
-  Rate wrong_target;  ///< detected elsewhere than the target / frames with neighbours in view
-  Rate false_hole;    ///< hole not on the bore / holes reported where the hole truth is known
+  Rate flange_found;     ///< correct / flange_eligible
+  Rate hole_found;       ///< hole_correct / hole_eligible (the thesis' "spool detected": BC and SC)
+  Rate hole_found_dark;  ///< hole_correct / hole_dark_eligible
+  Rate false_spool;      ///< detected / frames without a spool centre in view
+  Rate wrong_target;     ///< detected elsewhere than the target / frames with neighbours in view
+  Rate false_hole;       ///< hole not on the bore / holes reported where the hole truth is known
   // Where the flange-eligible frames went wrong.
   int missed = 0;
   int on_other_spool = 0;
-  int bogus = 0;          ///< a flange on no spool at all
-  Spread distance_error;  ///< |relative|, correct detections on flange-eligible frames
-  Spread yaw_error_deg;   ///< |deg|, same frames
-  Spread time_ms;         ///< every frame
+  int bogus = 0;                ///< a flange on no spool at all
+  Spread distance_error;        ///< |relative|, correct detections on flange-eligible frames
+  Spread yaw_error_deg;         ///< |deg|, same frames
+  Spread hole_centre_error_px;  ///< hole-eligible frames (lit or dark) with a hole reported on a correct flange
+  Spread hole_radius_error_px;
+  Spread time_ms;  ///< every frame
 };
 
 Metrics summarize(const std::vector<FrameScore>& scores);
 
 /// Runs the detector on every frame (with the frames' camera) and scores it.
 std::vector<FrameScore> evaluate(SpoolDetector& detector, const std::vector<RenderedFrame>& frames);
+
+/// The slowest frame of a timed run (§7: no frame slower than 3x the median).
+struct WorstFrame
+{
+  double ms = std::numeric_limits<double>::quiet_NaN();
+  size_t index = 0;
+};
+
+/// A shared machine preempts now and then, and one preempted run would pass for a slow frame: a
+/// frame's time is the least of its first time `first_ms[i]` and `runs - 1` more from
+/// `rerun(i)`. Frames are tried slowest first, and only while their first time exceeds the worst
+/// so far (no other frame can beat it), so few frames run again.
+WorstFrame slowestFrame(const std::vector<double>& first_ms, const std::function<double(size_t)>& rerun, int runs = 3);
+
+/// slowestFrame of the detector on `frames`, first times from `scores` (what evaluate() gave).
+WorstFrame worstFrame(SpoolDetector& detector, const std::vector<RenderedFrame>& frames,
+                      const std::vector<FrameScore>& scores, int runs = 3);
 
 // ---------------------------------------------------------------------------------------------
 // cv::HoughCircles doing the detector's two-range job (flange radii, hole radii) on the same
@@ -205,21 +242,45 @@ double baselineMedianMs(HoughCirclesBaseline& baseline, const std::vector<Render
 // ---------------------------------------------------------------------------------------------
 // The evaluation run and its report.
 
-/// DESIGN.md §7 for one resolution. NaN = not a bar at this resolution (reported only).
+/// The camera the evaluation and the benchmark render `set` with at `size`. Branch render-hard
+/// gives the hard set its own (principal point off centre) through setCamera(set, size); this is
+/// the one place to switch to it. Frames carry their camera, so scoring and timing follow.
+CameraIntrinsics renderCamera(FrameSet set, cv::Size size);
+
+/// DESIGN.md §7 (issue 9) for one setup. NaN = not a bar here (reported only).
 struct QualityBars
 {
-  double flange_found_min = 0.99;
-  double hole_found_min = 0.97;
-  double false_spool_max = 0.01;
-  double wrong_target_max = 0.01;
-  double distance_median_max = 0.01;
-  double distance_p95_max = 0.03;
-  double yaw_median_max_deg = 0.1;
-  double yaw_p95_max_deg = 0.3;
-  double time_median_max_ms = 5.0;
+  static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
 
-  static QualityBars vga();         ///< 640x480
-  static QualityBars thesisSize();  ///< 160x120: hole 90%, 1 ms; distance and yaw bars are 640x480's
+  double flange_found_min = kNone;
+  double hole_found_min = kNone;       ///< where the bore shows through
+  double hole_dark_found_min = kNone;  ///< where the bore is in view but dark
+  double false_spool_max = kNone;
+  double wrong_target_max = kNone;
+  double distance_median_max = kNone;
+  double distance_p95_max = kNone;
+  double yaw_median_max_deg = kNone;
+  double yaw_p95_max_deg = kNone;
+  double time_median_max_ms = kNone;
+  double worst_ratio_max = kNone;  ///< slowest frame / median frame
+  bool faster_than_baseline = false;
+
+  /// default.yaml's bars at `size`: all of them at 640x480; at 160x120 and 320x240 flange, hole
+  /// (shows through, 90%), false spool, speed (0.5 ms median at 160x120 only); at other sizes
+  /// (1280x720) those that DESIGN.md states for every resolution.
+  static QualityBars forDefault(cv::Size size);
+  /// seed.yaml at 160x120, the thesis reproduction: the bars it has always been reported against.
+  static QualityBars thesisReproduction();
+};
+
+/// Frames per set for one setup (renders are shared by the setups of a size: each takes the
+/// first frames of the largest count, the same frames for the same seed).
+struct FrameCounts
+{
+  int main = 400;       ///< main set
+  int negatives = 200;  ///< negatives set
+  int hard = 200;       ///< hard set
+  int of(FrameSet set) const;
 };
 
 /// One detector configuration at one frame size.
@@ -229,18 +290,28 @@ struct Setup
   cv::Size size;
   DetectorParams params;
   QualityBars bars;
+  FrameCounts counts;
+  bool analyses = true;  ///< also run the thesis' chapter 4 analyses (variants, lamps, poses)
+};
+
+/// Sets scored together; the headline has one table per group.
+struct SetGroup
+{
+  std::string name;
+  std::vector<FrameSet> sets;
 };
 
 struct EvaluationConfig
 {
   std::vector<Setup> setups;
+  std::vector<SetGroup> groups = {{"main + negatives", {FrameSet::kMain, FrameSet::kNegatives}},
+                                  {"hard", {FrameSet::kHard}}};
   std::uint64_t seed = 1;
-  int main_count = 400;      ///< main set frames per setup
-  int negative_count = 200;  ///< negatives set frames per setup
-  int pose_repeats = 3;      ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
+  int pose_repeats = 3;  ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
 };
 
-/// A detector variant (parameter overrides on each setup's configuration) and its metrics.
+/// A detector variant (parameter overrides on each setup's configuration) and its metrics, on the
+/// first group's frames; setups without analyses hold empty metrics.
 struct VariantResult
 {
   std::string label;
@@ -273,14 +344,27 @@ struct PosePoint
   std::vector<PoseMeasurement> per_setup;
 };
 
-struct SetupResult
+/// A setup's result on one group of sets.
+struct GroupResult
 {
-  Metrics metrics;           ///< main + negatives sets, configuration as loaded
+  Metrics metrics;           ///< configuration as loaded
+  int frames = 0;            ///< frames scored
   double baseline_ms = 0.0;  ///< cv::HoughCircles median per frame on the same frames
+  WorstFrame worst;          ///< the detector's slowest frame
+  std::string worst_frame;   ///< which one, e.g. "hard #17"
   double speedRatio() const
   {
     return baseline_ms / metrics.time_ms.median;
   }
+  double worstRatio() const
+  {
+    return worst.ms / metrics.time_ms.median;
+  }
+};
+
+struct SetupResult
+{
+  std::vector<GroupResult> per_group;  ///< in EvaluationConfig::groups' order
 };
 
 struct EvaluationResult
@@ -295,7 +379,7 @@ struct EvaluationResult
 
 EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& progress = {});
 
-/// One row of the headline table: a §7 bar and, per setup, the measured value and verdict.
+/// One row of a headline table: a §7 bar and, per setup, the measured value and verdict.
 struct BarRow
 {
   std::string bar;
@@ -309,12 +393,13 @@ struct BarRow
   std::vector<Cell> per_setup;
 };
 
-std::vector<BarRow> headlineRows(const EvaluationResult& result);
+/// The rows of group `group`'s table.
+std::vector<BarRow> headlineRows(const EvaluationResult& result, size_t group);
 
-/// The headline table in Markdown.
+/// The headline in Markdown: one table per group, a column per setup.
 std::string headlineTable(const EvaluationResult& result);
 
-/// True when every bar that applies to setup `index` passes.
+/// True when every bar that applies to setup `index` passes on every group.
 bool barsPass(const EvaluationResult& result, size_t index);
 
 /// Writes `dir`/report.md and its PNG charts (creates `dir`). Throws std::runtime_error.

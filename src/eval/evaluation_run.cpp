@@ -1,5 +1,6 @@
-// The evaluation run: renders each setup's sets once, then runs the configuration as loaded, the
-// thesis' variants and the controlled poses on those frames.
+// The evaluation run: renders each set once per frame size, then runs each setup of that size
+// (configuration as loaded, per group of sets), the thesis' variants and the controlled poses.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -87,6 +88,22 @@ DetectorParams withOverrides(DetectorParams params, const std::vector<Override>&
   return params;
 }
 
+std::string setName(FrameSet set)
+{
+  switch (set)
+  {
+    case FrameSet::kMain:
+      return "main";
+    case FrameSet::kApproach:
+      return "approach";
+    case FrameSet::kNegatives:
+      return "negatives";
+    case FrameSet::kHard:
+      return "hard";
+  }
+  return "?";
+}
+
 Progress labelled(const Progress& progress, const std::string& what)
 {
   return [progress, what](const std::string&, int done, int total)
@@ -112,19 +129,18 @@ std::vector<PoseSpec> sweep(const std::vector<double>& distances, double first_d
 }
 
 // Renders `repeats` scenes per pose (no neighbours, all lamps on, as in the thesis' controlled
-// measurements) and fills the truth and this setup's measurement of each point.
+// measurements) and fills the truth and this setup's measurement of each point (`points` holds
+// one per pose, each with room for every setup).
 void measurePoses(const Setup& setup, const std::vector<PoseSpec>& poses, int repeats, std::uint64_t seed,
                   size_t setup_index, std::vector<PosePoint>& points, const Progress& progress)
 {
   const SpoolRenderer renderer(CameraIntrinsics::thesisDefault(setup.size.width, setup.size.height));
   SpoolDetector detector(setup.params);
   detector.setCamera(renderer.camera());
-  points.resize(poses.size());
   for (size_t i = 0; i < poses.size(); ++i)
   {
-    PosePoint& point = points[i];
-    point.per_setup.resize(setup_index + 1);
-    PoseMeasurement& m = point.per_setup[setup_index];
+    PosePoint& point = points.at(i);
+    PoseMeasurement& m = point.per_setup.at(setup_index);
     double distance_sum = 0.0;
     double yaw_sum = 0.0;
     double lateral_sum = 0.0;
@@ -158,34 +174,113 @@ void measurePoses(const Setup& setup, const std::vector<PoseSpec>& poses, int re
       progress("controlled poses", static_cast<int>(i + 1), static_cast<int>(poses.size()));
   }
 }
+// The setup's result on `group`: its share of each set (the first counts.of(set) frames of
+// `rendered`) scored, the slowest frame and the baseline's time on the same frames. `frames` and
+// `scores` receive what was scored, for the analyses.
+GroupResult scoreGroup(const Setup& setup, const SetGroup& group,
+                       const std::map<FrameSet, std::vector<RenderedFrame>>& rendered, SpoolDetector& detector,
+                       HoughCirclesBaseline& baseline, std::vector<RenderedFrame>& frames,
+                       std::vector<FrameScore>& scores)
+{
+  std::vector<std::pair<FrameSet, int>> origin;  // set and index of each frame, to name the slowest
+  frames.clear();
+  for (FrameSet set : group.sets)
+  {
+    const std::vector<RenderedFrame>& all = rendered.at(set);
+    const int count = std::min(setup.counts.of(set), static_cast<int>(all.size()));
+    for (int i = 0; i < count; ++i)
+    {
+      frames.push_back(all[static_cast<size_t>(i)]);
+      origin.emplace_back(set, i);
+    }
+  }
+  scores = evaluate(detector, frames);
+  GroupResult result;
+  result.metrics = summarize(scores);
+  result.frames = static_cast<int>(frames.size());
+  result.worst = worstFrame(detector, frames, scores);
+  if (!frames.empty())
+    result.worst_frame =
+        setName(origin[result.worst.index].first) + " #" + std::to_string(origin[result.worst.index].second);
+  result.baseline_ms = baselineMedianMs(baseline, frames);
+  return result;
+}
 }  // namespace
 
-QualityBars QualityBars::vga()
+CameraIntrinsics renderCamera(FrameSet, cv::Size size)
 {
-  return QualityBars();
+  // Until render-hard's setCamera(set, size) is merged: then this returns setCamera(set, size).
+  return CameraIntrinsics::thesisDefault(size.width, size.height);
 }
 
-QualityBars QualityBars::thesisSize()
+QualityBars QualityBars::forDefault(cv::Size size)
+{
+  // DESIGN.md §7 for every resolution the webcam streams.
+  QualityBars bars;
+  bars.flange_found_min = 0.99;
+  bars.false_spool_max = 0.01;
+  bars.worst_ratio_max = 3.0;
+  bars.faster_than_baseline = true;
+  if (size == cv::Size(640, 480))
+  {
+    bars.hole_found_min = 0.97;
+    bars.hole_dark_found_min = 0.90;
+    bars.wrong_target_max = 0.01;
+    bars.distance_median_max = 0.005;
+    bars.distance_p95_max = 0.015;
+    bars.yaw_median_max_deg = 0.05;
+    bars.yaw_p95_max_deg = 0.2;
+    bars.time_median_max_ms = 4.0;
+  }
+  else if (size == cv::Size(160, 120) || size == cv::Size(320, 240))
+  {
+    bars.hole_found_min = 0.90;
+    if (size.width == 160)
+      bars.time_median_max_ms = 0.5;
+  }
+  return bars;
+}
+
+QualityBars QualityBars::thesisReproduction()
 {
   QualityBars bars;
+  bars.flange_found_min = 0.99;
   bars.hole_found_min = 0.90;
+  bars.false_spool_max = 0.01;
+  bars.wrong_target_max = 0.01;
   bars.time_median_max_ms = 1.0;
-  bars.distance_median_max = bars.distance_p95_max = std::numeric_limits<double>::quiet_NaN();
-  bars.yaw_median_max_deg = bars.yaw_p95_max_deg = std::numeric_limits<double>::quiet_NaN();
+  bars.faster_than_baseline = true;
   return bars;
+}
+
+int FrameCounts::of(FrameSet set) const
+{
+  switch (set)
+  {
+    case FrameSet::kMain:
+      return main;
+    case FrameSet::kNegatives:
+      return negatives;
+    case FrameSet::kHard:
+      return hard;
+    case FrameSet::kApproach:
+      break;
+  }
+  return 0;
 }
 
 EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& progress)
 {
   EvaluationResult result;
   result.config = config;
+  result.setups.resize(config.setups.size());
   const std::vector<AnalysisSpec> specs = variantAnalyses();
   int variant_count = 0;
   for (const AnalysisSpec& spec : specs)
   {
     VariantAnalysis analysis{spec.key, spec.title, spec.note, {}};
     for (const VariantSpec& row : spec.rows)
-      analysis.rows.push_back({row.label, {}});
+      analysis.rows.push_back({row.label, std::vector<Metrics>(config.setups.size())});
     result.analyses.push_back(analysis);
     variant_count += static_cast<int>(spec.rows.size());
   }
@@ -197,62 +292,112 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
   const std::vector<LampCondition> lamp_conditions = {LampCondition::kS1S2, LampCondition::kS1S3, LampCondition::kS2S3,
                                                       LampCondition::kAll};
   for (LampCondition c : lamp_conditions)
-    lamps.rows.push_back({toString(c), {}});
+    lamps.rows.push_back({toString(c), std::vector<Metrics>(config.setups.size())});
 
   const std::vector<PoseSpec> distance_poses = sweep({0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1}, 0.0, 0.0, 1.0);
   const std::vector<PoseSpec> yaw_poses = sweep({1.0, 0.9, 0.8}, -20.0, 20.0, 5.0);
   const std::vector<PoseSpec> tx_poses = sweep({0.5, 0.6}, -1.0, 1.0, 0.25);
+  const PosePoint empty_point{0.0, 0.0, std::vector<PoseMeasurement>(config.setups.size())};
+  result.distance_sweep.assign(distance_poses.size(), empty_point);
+  result.yaw_sweep.assign(yaw_poses.size(), empty_point);
+  result.tx_sweep.assign(tx_poses.size(), empty_point);
 
-  for (size_t s = 0; s < config.setups.size(); ++s)
+  std::vector<FrameSet> sets;  // every set some group scores, once
+  for (const SetGroup& group : config.groups)
+    for (FrameSet set : group.sets)
+      if (std::find(sets.begin(), sets.end(), set) == sets.end())
+        sets.push_back(set);
+
+  // Size by size: each set is rendered once per size and shared by that size's setups, then
+  // dropped (a 640x480 set is ~1 MB a frame).
+  std::vector<bool> done_setup(config.setups.size(), false);
+  for (size_t first = 0; first < config.setups.size(); ++first)
   {
-    const Setup& setup = config.setups[s];
-    auto step = [&](const std::string& what) { return labelled(progress, setup.name + ": " + what); };
-    const SpoolRenderer renderer(CameraIntrinsics::thesisDefault(setup.size.width, setup.size.height));
-    std::vector<RenderedFrame> frames =
-        renderSet(renderer, FrameSet::kMain, config.seed, config.main_count, step("render main set"));
-    for (RenderedFrame& f :
-         renderSet(renderer, FrameSet::kNegatives, config.seed, config.negative_count, step("render negatives")))
-      frames.push_back(std::move(f));
-
-    SpoolDetector detector(setup.params);
-    const std::vector<FrameScore> scores = evaluate(detector, frames);
-    SetupResult setup_result;
-    setup_result.metrics = summarize(scores);
-    HoughCirclesBaseline baseline(searchRadii(setup.params, renderer.camera()));
-    setup_result.baseline_ms = baselineMedianMs(baseline, frames);
-    result.setups.push_back(setup_result);
-
-    // Variants that come out equal to the configuration (or to each other) run once.
-    std::map<std::string, Metrics> by_params = {{paramsToYaml(setup.params), setup_result.metrics}};
-    const Progress variants_progress = step("detector variants");
-    int done = 0;
-    for (size_t a = 0; a < specs.size(); ++a)
-      for (size_t r = 0; r < specs[a].rows.size(); ++r)
-      {
-        const DetectorParams params = withOverrides(setup.params, specs[a].rows[r].overrides);
-        auto [known, fresh] = by_params.try_emplace(paramsToYaml(params));
-        if (fresh)
-        {
-          SpoolDetector variant(params);
-          known->second = summarize(evaluate(variant, frames));
-        }
-        result.analyses[a].rows[r].per_setup.push_back(known->second);
-        variants_progress("", ++done, variant_count);
-      }
-    for (size_t c = 0; c < lamp_conditions.size(); ++c)
+    if (done_setup[first])
+      continue;
+    const cv::Size size = config.setups[first].size;
+    std::vector<size_t> of_size;
+    for (size_t s = first; s < config.setups.size(); ++s)
+      if (config.setups[s].size == size)
+        of_size.push_back(s);
+    const std::string size_name = std::to_string(size.width) + "x" + std::to_string(size.height);
+    std::map<FrameSet, std::vector<RenderedFrame>> rendered;
+    for (FrameSet set : sets)
     {
-      std::vector<FrameScore> subset;
-      for (const FrameScore& score : scores)
-        if (score.lamps == lamp_conditions[c])
-          subset.push_back(score);
-      lamps.rows[c].per_setup.push_back(summarize(subset));
+      int count = 0;
+      for (size_t s : of_size)
+        count = std::max(count, config.setups[s].counts.of(set));
+      rendered[set] = renderSet(SpoolRenderer(renderCamera(set, size)), set, config.seed, count,
+                                labelled(progress, size_name + ": render " + setName(set) + " set"));
     }
 
-    frames.clear();
-    measurePoses(setup, distance_poses, config.pose_repeats, config.seed, s, result.distance_sweep,
-                 step("distance sweep"));
-    measurePoses(setup, yaw_poses, config.pose_repeats, config.seed + 1, s, result.yaw_sweep, step("yaw sweep"));
-    measurePoses(setup, tx_poses, config.pose_repeats, config.seed + 2, s, result.tx_sweep, step("tx_r sweep"));
+    for (size_t s : of_size)
+    {
+      done_setup[s] = true;
+      const Setup& setup = config.setups[s];
+      auto step = [&](const std::string& what) { return labelled(progress, setup.name + ": " + what); };
+      SpoolDetector detector(setup.params);
+      // The radii follow the focal length, the same for every set of a size.
+      HoughCirclesBaseline baseline(
+          searchRadii(setup.params, CameraIntrinsics::thesisDefault(size.width, size.height)));
+      std::vector<RenderedFrame> first_group_frames;
+      std::vector<FrameScore> first_group_scores;
+      for (size_t g = 0; g < config.groups.size(); ++g)
+      {
+        std::vector<RenderedFrame> frames;
+        std::vector<FrameScore> scores;
+        step("score " + config.groups[g].name)("", 0, 1);
+        const GroupResult group = scoreGroup(setup, config.groups[g], rendered, detector, baseline, frames, scores);
+        step("score " + config.groups[g].name)("", 1, 1);
+        result.setups[s].per_group.push_back(group);
+        if (g == 0)
+        {
+          first_group_frames = std::move(frames);
+          first_group_scores = std::move(scores);
+        }
+      }
+      if (!setup.analyses)
+        continue;
+
+      // Variants that come out equal to the configuration (or to each other) run once.
+      std::map<std::string, Metrics> by_params = {{paramsToYaml(setup.params), summarize(first_group_scores)}};
+      const Progress variants_progress = step("detector variants");
+      int done = 0;
+      for (size_t a = 0; a < specs.size(); ++a)
+        for (size_t r = 0; r < specs[a].rows.size(); ++r)
+        {
+          const DetectorParams params = withOverrides(setup.params, specs[a].rows[r].overrides);
+          auto [known, fresh] = by_params.try_emplace(paramsToYaml(params));
+          if (fresh)
+          {
+            SpoolDetector variant(params);
+            known->second = summarize(evaluate(variant, first_group_frames));
+          }
+          result.analyses[a].rows[r].per_setup[s] = known->second;
+          variants_progress("", ++done, variant_count);
+        }
+      for (size_t c = 0; c < lamp_conditions.size(); ++c)
+      {
+        std::vector<FrameScore> subset;
+        for (const FrameScore& score : first_group_scores)
+          if (score.lamps == lamp_conditions[c])
+            subset.push_back(score);
+        lamps.rows[c].per_setup[s] = summarize(subset);
+      }
+    }
+    rendered.clear();
+
+    for (size_t s : of_size)
+    {
+      const Setup& setup = config.setups[s];
+      if (!setup.analyses)
+        continue;
+      auto step = [&](const std::string& what) { return labelled(progress, setup.name + ": " + what); };
+      measurePoses(setup, distance_poses, config.pose_repeats, config.seed, s, result.distance_sweep,
+                   step("distance sweep"));
+      measurePoses(setup, yaw_poses, config.pose_repeats, config.seed + 1, s, result.yaw_sweep, step("yaw sweep"));
+      measurePoses(setup, tx_poses, config.pose_repeats, config.seed + 2, s, result.tx_sweep, step("tx_r sweep"));
+    }
   }
   result.analyses.push_back(lamps);
   return result;

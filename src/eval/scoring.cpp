@@ -75,9 +75,26 @@ bool flangeMatches(const ProjectedCircle& truth, const Circle& found)
   return circleMatches(truth, found, 3.0, 0.1, 0.0, 0.1);
 }
 
-bool holeMatches(const ProjectedCircle& truth, const Circle& found)
+HoleTolerance holeTolerance(const CameraIntrinsics& camera)
 {
-  return circleMatches(truth, found, 2.0, 0.25, 1.0, 0.25);
+  // 480 rows: DESIGN.md's 1 px. The truth is the front rim's projected ellipse (centre, mean
+  // semi-axis), which is what a circle fit to that rim converges to, so 1 px is attainable
+  // there; below 480 rows the bore spans only 2-16 px and a 1 px bar would measure pixel
+  // quantisation, not the detector.
+  constexpr int kDesignRows = 480;
+  constexpr double kDesignFocal = 800.0;  // thesisDefault's focal length at 480 rows
+  if (camera.height >= kDesignRows)
+  {
+    const double px = std::max(1.0, camera.fy / kDesignFocal);
+    return {px, 0.0, px, 0.0};
+  }
+  return {2.0, 0.25, 1.0, 0.25};
+}
+
+bool holeMatches(const ProjectedCircle& truth, const Circle& found, const HoleTolerance& tolerance)
+{
+  return circleMatches(truth, found, tolerance.centre_px, tolerance.centre_fraction, tolerance.radius_px,
+                       tolerance.radius_fraction);
 }
 
 FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
@@ -112,11 +129,19 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
 
   s.flange_eligible = target.flange.visible_fraction >= 0.5 && target.distance >= kWorkingDistanceMin &&
                       target.distance <= kWorkingDistanceMax && std::abs(target.yaw) <= kWorkingBearingMax;
-  s.hole_eligible = s.flange_eligible && target.in_slot && truth.bore_visible && truth.hole_in_view;
+  const bool bore_in_view = s.flange_eligible && target.in_slot && truth.hole_in_view;
+  s.hole_eligible = bore_in_view && truth.bore_visible;
+  s.hole_dark_eligible = bore_in_view && !truth.bore_visible;
   const SpoolTruth& judged = spools[*judged_index];
   s.correct = s.detected && flangeMatches(judged.flange, detection.flange);
   s.on_other_spool &= !s.correct;
-  s.hole_correct = s.correct && s.hole_reported && judged.in_slot && holeMatches(*truth.hole, detection.hole);
+  s.hole_correct = s.correct && s.hole_reported && judged.in_slot &&
+                   holeMatches(*truth.hole, detection.hole, holeTolerance(truth.camera));
+  if (s.correct && s.hole_reported && judged.in_slot)
+  {
+    s.hole_centre_error = std::hypot(detection.hole.x - truth.hole->x, detection.hole.y - truth.hole->y);
+    s.hole_radius_error = std::abs(detection.hole.r - truth.hole->r);
+  }
   if (s.correct)
   {
     s.distance_error = (detection.distance - judged.distance) / judged.distance;
@@ -151,11 +176,19 @@ Metrics summarize(const std::vector<FrameScore>& scores)
   Metrics m;
   std::vector<double> distance_errors;
   std::vector<double> yaw_errors;
+  std::vector<double> hole_centre_errors;
+  std::vector<double> hole_radius_errors;
   std::vector<double> times;
   for (const FrameScore& s : scores)
   {
     m.flange_found.add(s.flange_eligible, s.correct);
     m.hole_found.add(s.hole_eligible, s.hole_correct);
+    m.hole_found_dark.add(s.hole_dark_eligible, s.hole_correct);
+    if (s.hole_eligible || s.hole_dark_eligible)
+    {
+      hole_centre_errors.push_back(s.hole_centre_error);
+      hole_radius_errors.push_back(s.hole_radius_error);
+    }
     m.false_spool.add(!s.has_target, s.detected);
     m.wrong_target.add(s.has_target && s.neighbours_in_view, s.detected && !s.correct);
     m.false_hole.add(s.hole_reported && s.hole_judged, !s.hole_correct);
@@ -171,6 +204,8 @@ Metrics summarize(const std::vector<FrameScore>& scores)
   }
   m.distance_error = spreadOf(distance_errors);
   m.yaw_error_deg = spreadOf(yaw_errors);
+  m.hole_centre_error_px = spreadOf(hole_centre_errors);
+  m.hole_radius_error_px = spreadOf(hole_radius_errors);
   m.time_ms = spreadOf(times);
   return m;
 }
@@ -188,6 +223,51 @@ std::vector<FrameScore> evaluate(SpoolDetector& detector, const std::vector<Rend
     scores.push_back(scoreFrame(truth, detector.detect(frames[i].image, PixelFormat::kBgr8)));
   }
   return scores;
+}
+
+WorstFrame slowestFrame(const std::vector<double>& first_ms, const std::function<double(size_t)>& rerun, int runs)
+{
+  std::vector<size_t> order(first_ms.size());
+  for (size_t i = 0; i < order.size(); ++i)
+    order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return first_ms[a] > first_ms[b]; });
+  WorstFrame worst;
+  for (size_t i : order)
+  {
+    // A frame's time is at most its first time: once that is below the worst, no frame left wins.
+    if (std::isfinite(worst.ms) && first_ms[i] <= worst.ms)
+      break;
+    double ms = first_ms[i];
+    for (int r = 1; r < runs; ++r)
+      ms = std::min(ms, rerun(i));
+    if (!std::isfinite(worst.ms) || ms > worst.ms)
+      worst = {ms, i};
+  }
+  return worst;
+}
+
+WorstFrame worstFrame(SpoolDetector& detector, const std::vector<RenderedFrame>& frames,
+                      const std::vector<FrameScore>& scores, int runs)
+{
+  std::vector<double> first_ms;
+  first_ms.reserve(scores.size());
+  for (const FrameScore& s : scores)
+    first_ms.push_back(s.time_ms);
+  // evaluate() left the last frame's camera set; a change rebuilds the geometry inside the timed
+  // detect(), so set it only on a change, as evaluate() does.
+  const CameraIntrinsics* current = frames.empty() ? nullptr : &frames.back().truth.camera;
+  return slowestFrame(
+      first_ms,
+      [&](size_t i)
+      {
+        if (frames[i].truth.camera != *current)
+        {
+          current = &frames[i].truth.camera;
+          detector.setCamera(*current);
+        }
+        return detector.detect(frames[i].image, PixelFormat::kBgr8).time_ms;
+      },
+      runs);
 }
 
 }  // namespace spool_vision
