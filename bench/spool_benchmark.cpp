@@ -114,7 +114,7 @@ const Frames& framesAt(cv::Size size)
   for (const auto& [set, name, count] :
        {std::tuple(sv::FrameSet::kMain, "main", kMainFrames), std::tuple(sv::FrameSet::kHard, "hard", kHardFrames)})
   {
-    const sv::CameraIntrinsics camera = sv::renderCamera(set, size);
+    const sv::CameraIntrinsics camera = sv::setCamera(set, size);
     const auto known = std::find(f.cameras.begin(), f.cameras.end(), camera);
     const size_t index = static_cast<size_t>(known - f.cameras.begin());
     if (known == f.cameras.end())

@@ -242,11 +242,6 @@ double baselineMedianMs(HoughCirclesBaseline& baseline, const std::vector<Render
 // ---------------------------------------------------------------------------------------------
 // The evaluation run and its report.
 
-/// The camera the evaluation and the benchmark render `set` with at `size`. Branch render-hard
-/// gives the hard set its own (principal point off centre) through setCamera(set, size); this is
-/// the one place to switch to it. Frames carry their camera, so scoring and timing follow.
-CameraIntrinsics renderCamera(FrameSet set, cv::Size size);
-
 /// DESIGN.md §7 (issue 9) for one setup. NaN = not a bar here (reported only).
 struct QualityBars
 {

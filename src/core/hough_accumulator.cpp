@@ -343,6 +343,9 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
                                      Circle& circle)
 {
   const float sign = centreSign(search.polarity);
+  // An empty range (fitAt() about a flange larger than the search allows) has no rim.
+  if (!(search.r_max >= search.r_min))
+    return false;
   const double lo = std::max(1.0, search.r_min - slack);
   const double hi = search.r_max + slack;
   const int bins = static_cast<int>(std::ceil(hi - lo)) + 1;

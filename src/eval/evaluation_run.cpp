@@ -207,12 +207,6 @@ GroupResult scoreGroup(const Setup& setup, const SetGroup& group,
 }
 }  // namespace
 
-CameraIntrinsics renderCamera(FrameSet, cv::Size size)
-{
-  // Until render-hard's setCamera(set, size) is merged: then this returns setCamera(set, size).
-  return CameraIntrinsics::thesisDefault(size.width, size.height);
-}
-
 QualityBars QualityBars::forDefault(cv::Size size)
 {
   // DESIGN.md §7 for every resolution the webcam streams.
@@ -327,7 +321,7 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
       int count = 0;
       for (size_t s : of_size)
         count = std::max(count, config.setups[s].counts.of(set));
-      rendered[set] = renderSet(SpoolRenderer(renderCamera(set, size)), set, config.seed, count,
+      rendered[set] = renderSet(SpoolRenderer(setCamera(set, size)), set, config.seed, count,
                                 labelled(progress, size_name + ": render " + setName(set) + " set"));
     }
 

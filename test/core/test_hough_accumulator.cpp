@@ -234,3 +234,19 @@ TEST(HoughAccumulator, FitAtMeasuresTheFrontRimAboutAKnownCentre)
   // Nothing about a centre with no rim around it in range.
   EXPECT_FALSE(hough.fitAt(edges, img.size(), search, {100, 100}, back, front));
 }
+
+TEST(HoughAccumulator, FitAtWithAnEmptyRadiusRangeFindsNothing)
+{
+  // A front rim measured about a hole with radii beyond the search range (found on a 1280x720
+  // frame of clutter, where it threw std::length_error).
+  const cv::Mat img = drawSceneGray({640, 480}, {{320, 240, 150, 0}});
+  EdgeDetector detector;
+  std::vector<EdgePoint> edges;
+  detector.detect(img, 0.05, kNoBudget, edges);
+  HoughSearch search;
+  search.r_min = 200;
+  search.r_max = 120;
+  HoughAccumulator hough;
+  Circle c;
+  EXPECT_FALSE(hough.fitAt(edges, img.size(), search, {320, 240}, BackFlange{}, c));
+}
