@@ -116,6 +116,18 @@ public:
   bool fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
              const cv::Point2d& centre, const BackFlange& back, Circle& circle);
 
+  /// The centre of a rim of known size (axis-aligned ellipse, semi-axes in px) within
+  /// `max_shift` px of `start`, measured on the part of the rim that shows: the centre that puts
+  /// the most edges of `search`'s polarity within a narrow band of the ellipse, each weighted by
+  /// its closeness (half-pixel grid, then a tenth). Only the half of the rim on the `side` of
+  /// `start` counts (a direction; zero = all of it). `circle.r` is the mean semi-axis; the score
+  /// as refine()'s, over that half. False without support. For the bore's front rim, whose far
+  /// side hides behind the bore wall catching light near the opening: a free fit follows the dark
+  /// region inside and comes out small and off centre.
+  bool fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                       const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
+                       const cv::Point2d& side, Circle& circle);
+
   /// The raw vote image of the last call (CV_32F, one cell per `cellSize()` px), for debugging.
   const cv::Mat& votes() const
   {
@@ -148,7 +160,7 @@ private:
   std::vector<Peak> peaks_;
   std::vector<float> histogram_;
   std::vector<double> scores_;
-  std::vector<EdgePoint> near_;  ///< refine(): the edges near the circle being fitted
+  std::vector<EdgePoint> near_;  ///< refine(), fitCentreAtRadius(): the edges near the circle
 };
 
 /// Fraction of a circle's circumference that can show: inside an image of the given size and,

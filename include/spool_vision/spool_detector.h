@@ -74,6 +74,10 @@ private:
   /// whose concentric window shows a disc of the bore's size that differs from the face around
   /// it by bore_contrast.
   std::optional<std::size_t> strongFlangeWithBore(const HoughSearch& hole_search) const;
+  /// The target's hole measured again at the size its flange gives it (the rim's far side hides
+  /// behind the lit bore wall, so a free fit comes out small and off centre); kept when its
+  /// support passes hole_sensitivity.
+  void measureBoreAtKnownSize(SpoolDetection& result);
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
 

@@ -26,6 +26,9 @@ struct Circle
   /// Vertical semi-axis of the fitted rim (px); equals r for a fronto-parallel circle. The
   /// vertical extent of a circle at depth Z is exact under yaw, so distance uses this.
   double r_vertical = 0.0;
+  /// Horizontal semi-axis of the fitted rim (px): shorter than r_vertical when the rim is seen
+  /// from the side (its spool yawed); 0 where no fit gave one (then r).
+  double r_horizontal = 0.0;
   /// Fraction of the in-frame rim supported by edge pixels, 0..1.
   double score = 0.0;
   /// Fraction of the rim that lies inside the image, 0..1.

@@ -419,7 +419,7 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
   circle.x = peak.x;
   circle.y = peak.y;
   circle.r = best_r;
-  circle.r_vertical = best_r;
+  circle.r_vertical = circle.r_horizontal = best_r;
   circle.score = std::min(1.0, best_score);
   circle.visible_fraction = best_vis;
   return true;
@@ -520,6 +520,7 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   circle.y = cy;
   circle.r = r_fit;
   circle.r_vertical = semi_y;
+  circle.r_horizontal = semi_x;
   circle.visible_fraction = visibleRimFraction(cx, cy, r_fit, image_size);
   if (circle.visible_fraction < search.min_visible_fraction)
     return false;
@@ -556,12 +557,85 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
     }
     if (count == 0)
       return false;
-    circle.r = circle.r_vertical = r;
+    circle.r = circle.r_vertical = circle.r_horizontal = r;
   }
   circle.visible_fraction = visibleRimFraction(centre.x, centre.y, circle.r, image_size);
   const double can_show = visibleRimFraction(centre.x, centre.y, circle.r, image_size, back);
   circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * circle.r * std::max(can_show, 1e-3)));
   return circle.visible_fraction >= search.min_visible_fraction;
+}
+
+bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                       const HoughSearch& search, const cv::Point2d& start, double semi_x,
+                                       double semi_y, double max_shift, const cv::Point2d& side, Circle& circle)
+{
+  const float sign = centreSign(search.polarity);
+  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double band = std::max(0.75, 0.04 * mean_r);
+  const double inner = std::max(0.0, std::min(semi_x, semi_y) - max_shift - band);
+  const double outer = std::max(semi_x, semi_y) + max_shift + band;
+  near_.clear();
+  for (const EdgePoint& e : edges)
+  {
+    const double vx = e.x - start.x;
+    const double vy = e.y - start.y;
+    const double d2 = vx * vx + vy * vy;
+    if (d2 >= inner * inner && d2 <= outer * outer && vx * side.x + vy * side.y >= 0.0)
+      near_.push_back(e);
+  }
+  // Edges within the band about the ellipse centred at c, each weighted by how close it lies to
+  // the ellipse (a soft count, so the best centre is found to a fraction of the grid step).
+  auto support = [&](const cv::Point2d& c, int* count)
+  {
+    double soft = 0.0;
+    int n = 0;
+    for (const EdgePoint& e : near_)
+    {
+      const double vx = e.x - c.x;
+      const double vy = e.y - c.y;
+      const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
+      if (off > band || !radial(vx, vy, std::sqrt(vx * vx + vy * vy), e, sign))
+        continue;
+      soft += 1.0 - off / band;
+      ++n;
+    }
+    if (count)
+      *count = n;
+    return soft;
+  };
+  cv::Point2d best = start;
+  double best_soft = -1.0;
+  auto search_grid = [&](const cv::Point2d& around, double reach, double step)
+  {
+    const cv::Point2d from = around;
+    const int steps = static_cast<int>(std::ceil(reach / step));
+    for (int iy = -steps; iy <= steps; ++iy)
+      for (int ix = -steps; ix <= steps; ++ix)
+      {
+        const cv::Point2d c(from.x + step * ix, from.y + step * iy);
+        const double soft = support(c, nullptr);
+        if (soft > best_soft)
+        {
+          best_soft = soft;
+          best = c;
+        }
+      }
+  };
+  search_grid(start, max_shift, 0.5);
+  search_grid(best, 0.5, 0.1);
+  int count = 0;
+  support(best, &count);
+  if (count < 8)
+    return false;
+  circle.x = best.x;
+  circle.y = best.y;
+  circle.r = 0.5 * (semi_x + semi_y);
+  circle.r_vertical = semi_y;
+  circle.r_horizontal = semi_x;
+  circle.visible_fraction = visibleRimFraction(best.x, best.y, circle.r, image_size);
+  const double arc = side == cv::Point2d() ? 1.0 : 0.5;
+  circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * mean_r * arc * std::max(circle.visible_fraction, 1e-3)));
+  return true;
 }
 
 void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,

@@ -166,6 +166,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
   {
     std::swap(holes_, target_holes_);
     take(best->flange, best->hole);
+    measureBoreAtKnownSize(result);
     findLens(result);
     return;
   }
@@ -184,6 +185,42 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
       take(flanges_[order_.front()], std::nullopt);
       break;
   }
+}
+
+void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
+{
+  // The bore is a circle on the flange's face, 3.6/35 of it: its ellipse is the flange's, scaled.
+  const Circle& flange = result.flange;
+  const double scale = matcher_.holeRadius(flange) / flange.r_vertical;
+  const double semi_x = scale * (flange.r_horizontal > 0.0 ? flange.r_horizontal : flange.r);
+  const double semi_y = scale * flange.r_vertical;
+  // Half a rim of a few pixels (a bore at 160x120) has too few edges to place it better than the
+  // free fit, and there the lit band is within a pixel of the rim anyway.
+  constexpr double kMinRadius = 6.0;  // px
+  if (semi_y < kMinRadius)
+    return;
+  Circle& hole = result.hole;
+  const double reach = std::max(semi_x, semi_y) + 0.25 * semi_y + 3.0;
+  const cv::Rect window(cvFloor(hole.x - reach), cvFloor(hole.y - reach), cvCeil(2.0 * reach) + 1,
+                        cvCeil(2.0 * reach) + 1);
+  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+  HoughSearch search;
+  search.polarity = params_.hough.hole_polarity;
+  // Deeper in the bore a circle of the wall projects nearer the principal point (as the back
+  // flange does), so the wall near the opening, lit like the face, shows inside the rim on the
+  // side away from it: a band about |hole - principal point| * depth / Z px wide for the ~1.5 cm
+  // of wall the light reaches. Where that is a fraction of a pixel the whole rim counts; else
+  // only its half facing the principal point, which is sharp.
+  const cv::Point2d pp = matcher_.backFlange().principal_point;
+  const cv::Point2d outward(hole.x - pp.x, hole.y - pp.y);
+  const double depth = geometryFor(preprocessed_.size()).depthFromDiameter(2.0 * flange.r_vertical);
+  constexpr double kLitWall = 0.015;  // m
+  const cv::Point2d side = std::hypot(outward.x, outward.y) * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
+  Circle fitted;
+  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y,
+                                  0.25 * semi_y + 1.0, side, fitted) &&
+      fitted.score >= 1.0 - params_.hough.hole_sensitivity)
+    hole = fitted;
 }
 
 void SpoolDetector::findLens(SpoolDetection& result)

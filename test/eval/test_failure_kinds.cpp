@@ -65,7 +65,8 @@ void expectFrontRim(const Case& c, int width)
   ASSERT_TRUE(d.detected);
   EXPECT_TRUE(spool_vision::flangeMatches(*t.flange, d.flange));
   ASSERT_TRUE(d.hole_detected);
-  const double tol = std::max(1.0, 0.1 * t.hole->r);  // 1 px at 640x480
+  // DESIGN.md §7: the front rim within 1 px at 640x480; a few-pixel bore to a tenth of its size.
+  const double tol = width >= 640 ? 1.0 : std::max(1.0, 0.1 * t.hole->r);
   EXPECT_LE(std::hypot(d.hole.x - t.hole->x, d.hole.y - t.hole->y), tol);
   EXPECT_NEAR(d.hole.r, t.hole->r, tol);
 }
@@ -84,6 +85,15 @@ TEST(FailureKinds, DarkBoreInAnAutoExposedFace)
   ASSERT_FALSE(
       SpoolRenderer(spool_vision::setCamera(FrameSet::kHard, {640, 480})).groundTruth(c.scene, c.pose).bore_visible);
   expectAtEveryResolution(c);
+}
+
+// Far off the principal point the bore wall near the opening, lit like the face, shows inside the
+// rim on the side away from it: a free fit of the dark region comes out small and off centre.
+TEST(FailureKinds, DarkBoreWithItsLitWallBandFarFromTheImageCentre)
+{
+  SceneParams s = webcamScene();
+  s.bore_falloff = 0.015;
+  expectAtEveryResolution({s, spool_vision::bearingPose(0.6, 12 * kDeg, 0.0, 0.06, 0.0)});
 }
 
 // pos_031, pos_167: near the axis only a parallax lens of the bore is lit; the rim is around it.
