@@ -110,6 +110,7 @@ struct GeometryParams
   double flange_diameter = 0.35;         ///< m
   double hole_diameter = 0.036;          ///< m
   double hub_length = 0.2;               ///< m, front flange face to back flange face
+  double axis_height_tolerance = 0.1;    ///< m, spool axis off the puller's height (camera frame y)
   double puller_diameter = 0.031;        ///< m
   double distance_min = 0.45;            ///< m, nearest working distance (sets the largest radius)
   double distance_max = 1.2;             ///< m, farthest working distance (sets the smallest radius)

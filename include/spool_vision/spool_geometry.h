@@ -42,6 +42,15 @@ public:
   /// Radius ranges (px) of flange and hole implied by the distance range and focal length.
   void radiusRanges(double& flange_min, double& flange_max, double& hole_min, double& hole_max) const;
 
+  /// How far (m, camera frame y, positive down) the axis of a spool whose flange is `flange`
+  /// lies below the puller axis, its hole centre at image row `v`: depth from the flange (Eq.
+  /// 3.2), then y = (v - cy) / fy * depth, minus puller_offset_y.
+  double axisHeightOffset(const Circle& flange, double v) const;
+
+  /// True when that offset is within axis_height_tolerance: a round thing far above or below
+  /// the puller's level (a ring on the wall, a can on the board) is no spool to pick.
+  bool atPullerLevel(const Circle& flange, double v) const;
+
   /// t_f = (hole - puller) / 2 in metres (0.25 cm for the thesis spool).
   double tolerance() const;
 

@@ -138,6 +138,9 @@ std::vector<ParamSpec> buildSpecs()
       // Geometry (thesis §3.4)
       number("flange_diameter", FIELD(geometry.flange_diameter), 0.01, 5.0, "m", "spool flange diameter"),
       number("hole_diameter", FIELD(geometry.hole_diameter), 0.001, 1.0, "m", "centre hole (bore) diameter"),
+      number("axis_height_tolerance", FIELD(geometry.axis_height_tolerance), 0.01, 10.0, "m",
+             "a spool's axis (hole centre) at most this far above or below the puller axis; the robot "
+             "takes spools from the shelf level it stands at (10 = off)"),
       number("hub_length", FIELD(geometry.hub_length), 0.0, 5.0, "m",
              "front to back flange face; places the hole when an oblique fit follows both flanges"),
       number("puller_diameter", FIELD(geometry.puller_diameter), 0.0, 1.0, "m", "puller peg diameter"),

@@ -151,7 +151,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     if (best && nearest >= best_cost)
       continue;
     const std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
-    if (!match)
+    if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y))
       continue;
     const double cost =
         std::hypot(match->hole->x - reference.x, match->hole->y - reference.y) / std::max(match->flange.score, 1e-3);
@@ -316,7 +316,7 @@ std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch
     // leaves room for neighbours' back flanges and shelf arcs.
     if (flange.score < params_.matcher.flange_only_score ||
         flange.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
-        !matcher_.narrowHoleSearch(flange, preprocessed_.size(), search))
+        !geometry_->atPullerLevel(flange, flange.y) || !matcher_.narrowHoleSearch(flange, preprocessed_.size(), search))
       continue;
     // The bore's size is known from the flange; its centre anywhere in the concentric window,
     // sampled at a quarter of its radius (at most 7 x 7 places). The contrast must peak inside

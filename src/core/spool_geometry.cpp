@@ -35,6 +35,17 @@ double SpoolGeometry::yaw(double u, double u_ref) const
   return std::atan2(u - u_ref, camera_.fx);
 }
 
+double SpoolGeometry::axisHeightOffset(const Circle& flange, double v) const
+{
+  const double depth = depthFromDiameter(2.0 * flange.r_vertical);
+  return (v - camera_.cy) / camera_.fy * depth - params_.puller_offset_y;
+}
+
+bool SpoolGeometry::atPullerLevel(const Circle& flange, double v) const
+{
+  return std::abs(axisHeightOffset(flange, v)) <= params_.axis_height_tolerance;
+}
+
 cv::Point2d SpoolGeometry::reference(double distance) const
 {
   if (params_.reference_mode == ReferenceMode::kFixed)

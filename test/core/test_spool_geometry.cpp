@@ -138,6 +138,20 @@ TEST(SpoolGeometry, AlignedOnlyInTheWindowAndOnTheReference)
   EXPECT_FALSE(d.overlapped);
 }
 
+TEST(SpoolGeometry, ASpoolAxisFarFromThePullerLevelIsNoSpoolToPick)
+{
+  const SpoolGeometry g(GeometryParams(), kThesis);
+  // 0.8 m deep: the flange is 200 * 0.175 / 0.8 = 43.75 px in radius; the puller axis, 6 cm
+  // below the camera, shows 15 px below the principal point.
+  spool_vision::Circle flange;
+  flange.x = 79.5;
+  flange.r = flange.r_vertical = 200 * 0.175 / 0.8;
+  EXPECT_NEAR(g.axisHeightOffset(flange, 59.5 + 15.0), 0.0, 1e-12);
+  EXPECT_NEAR(g.axisHeightOffset(flange, 59.5), -0.06, 1e-12);
+  EXPECT_TRUE(g.atPullerLevel(flange, 59.5 + 15.0 + 200 * 0.09 / 0.8));   // 9 cm below
+  EXPECT_FALSE(g.atPullerLevel(flange, 59.5 + 15.0 - 200 * 0.11 / 0.8));  // 11 cm above
+}
+
 TEST(SpoolGeometry, YawBeyondTheLimitIsNotAligned)
 {
   GeometryParams p;
