@@ -167,7 +167,9 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     std::swap(holes_, target_holes_);
     take(best->flange, best->hole);
     measureBoreAtKnownSize(result);
-    findLens(result);
+    // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
+    if (params_.hough.hole_polarity != Polarity::kBright)
+      findLens(result);
     return;
   }
   holes_.clear();
@@ -233,7 +235,7 @@ void SpoolDetector::findLens(SpoolDetection& result)
   search.min_visible_fraction = params_.hough.min_visible_fraction;
   search.max_circles = 2;
   search.r_min = std::max(1.0, 0.3 * rim.r);
-  search.r_max = 0.95 * rim.r;
+  search.r_max = 0.9 * rim.r;  // a lens as big as the rim is the rim itself
   search.center_window = cv::Rect2d(rim.x - 0.5 * rim.r, rim.y - 0.5 * rim.r, rim.r, rim.r);
   const cv::Rect window(cvFloor(rim.x - rim.r - 2.0), cvFloor(rim.y - rim.r - 2.0), cvCeil(2.0 * rim.r) + 5,
                         cvCeil(2.0 * rim.r) + 5);
