@@ -8,6 +8,7 @@
 #include <image_transport/exception.h>
 #include <sensor_msgs/image_encodings.h>
 #include <boost/any.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "pose_conversion.h"
 #include "ros_params.h"
@@ -39,6 +40,10 @@ std::optional<PixelFormat> pixelFormatOf(const std::string& encoding)
   return std::nullopt;
 }
 
+// YUYV as webcam drivers (usb_cam, v4l2_camera) publish it; Debian's cv_bridge does not know the
+// name. "yuv422" is UYVY. Both carry the luma the detector reads in every other byte.
+const char* const kYuyv = "yuv422_yuy2";
+
 // cv_bridge wraps msg.data without checking its size, so a short buffer would be read past its
 // end: refuse it before any conversion.
 void checkBuffer(const sensor_msgs::Image& msg)
@@ -48,7 +53,8 @@ void checkBuffer(const sensor_msgs::Image& msg)
   size_t bits_per_pixel = 0;
   try
   {
-    bits_per_pixel = static_cast<size_t>(enc::bitDepth(msg.encoding)) * enc::numChannels(msg.encoding);
+    bits_per_pixel =
+        msg.encoding == kYuyv ? 16 : static_cast<size_t>(enc::bitDepth(msg.encoding)) * enc::numChannels(msg.encoding);
   }
   catch (const std::runtime_error&)
   {
@@ -224,20 +230,46 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg)
 {
   checkBuffer(*msg);
   cv_bridge::CvImageConstPtr frame;
+  cv::Mat image;
   PixelFormat format = PixelFormat::kMono8;
-  if (const auto direct = pixelFormatOf(msg->encoding))
+  const int rows = static_cast<int>(msg->height);
+  const int cols = static_cast<int>(msg->width);
+  auto* data = const_cast<uint8_t*>(msg->data.data());  // read only: wrapped, never written
+  if (msg->encoding == kYuyv || msg->encoding == enc::YUV422)
+  {
+    const cv::Mat packed(rows, cols, CV_8UC2, data, msg->step);
+    cv::cvtColor(packed, converted_, msg->encoding == kYuyv ? cv::COLOR_YUV2GRAY_YUY2 : cv::COLOR_YUV2GRAY_UYVY);
+    image = converted_;
+  }
+  else if (msg->encoding == enc::MONO16 && msg->is_bigendian)
+  {
+    // cv_bridge fails on big-endian words; this host reads them little-endian: swap the bytes.
+    converted_.create(rows, cols, CV_16UC1);
+    for (int y = 0; y < rows; ++y)
+    {
+      const uint8_t* in = data + static_cast<size_t>(y) * msg->step;
+      auto* out = converted_.ptr<uint16_t>(y);
+      for (int x = 0; x < cols; ++x)
+        out[x] = static_cast<uint16_t>((in[2 * x] << 8) | in[2 * x + 1]);
+    }
+    image = converted_;
+    format = PixelFormat::kMono16;
+  }
+  else if (const auto direct = pixelFormatOf(msg->encoding))
   {
     frame = cv_bridge::toCvShare(msg);
+    image = frame->image;
     format = *direct;
   }
   else
   {
-    // Bayer and YUV frames are converted; encodings without a colour meaning (depth, float)
-    // make cv_bridge throw.
+    // Bayer (all four patterns) and 16-bit colour are converted; encodings without a colour
+    // meaning (depth, float) make cv_bridge throw.
     frame = cv_bridge::toCvShare(msg, enc::MONO8);
+    image = frame->image;
   }
 
-  const SpoolDetection detection = detector_.detect(frame->image, format);
+  const SpoolDetection detection = detector_.detect(image, format);
   reportCameraSource(*msg);
   pose_pub_.publish(toSpoolPose(detection, msg->header));
 
@@ -248,7 +280,7 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg)
 
   if (debug_pub_.getNumSubscribers() > 0)
     debug_pub_.publish(
-        cv_bridge::CvImage(msg->header, enc::BGR8, renderOverlay(frame->image, format, detection)).toImageMsg());
+        cv_bridge::CvImage(msg->header, enc::BGR8, renderOverlay(image, format, detection)).toImageMsg());
 }
 
 void SpoolDetectorRos::reportCameraSource(const sensor_msgs::Image& msg)

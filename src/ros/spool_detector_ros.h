@@ -71,6 +71,7 @@ private:
   int window_frames_ = 0;
   int window_detected_ = 0;
   int window_failed_ = 0;
+  cv::Mat converted_;  ///< frames the adapter converts itself (YUYV/UYVY, big-endian mono16)
   double window_detector_ms_ = 0.0;
   double window_detector_max_ms_ = 0.0;
   double window_callback_ms_ = 0.0;

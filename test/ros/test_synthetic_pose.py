@@ -93,6 +93,29 @@ class SyntheticPoseTest(unittest.TestCase):
                                    msg=encoding)
             self.assertAlmostEqual(pose.yaw, reference.yaw, delta=math.radians(0.05), msg=encoding)
 
+    def test_webcam_driver_encodings_give_the_same_answer(self):
+        # YUYV (the C270's stream, as drivers name it), UYVY, a Bayer mosaic, 16-bit colour and
+        # big-endian mono16: each frame of the same grey scene must give the same pose.
+        grey = df.draw_spool(0.05, 0.9)
+        reference = self.send(grey)
+        chroma = np.full_like(grey, 128)
+        frames = {
+            "yuv422_yuy2": (np.dstack([grey, chroma]).reshape(grey.shape[0], -1), False),
+            "yuv422": (np.dstack([chroma, grey]).reshape(grey.shape[0], -1), False),
+            "bayer_rggb8": (grey, False),
+            "bgr16": (np.dstack([grey, grey, grey]).astype(np.uint16) * 257, False),
+            "mono16": (grey.astype(">u2") * 257, True),
+        }
+        for encoding, (pixels, big_endian) in frames.items():
+            msg = df.image_msg(np.ascontiguousarray(pixels), encoding)
+            msg.width = grey.shape[1]
+            msg.is_bigendian = 1 if big_endian else 0
+            pose = self.client.send(msg, df.camera_info_msg())
+            self.assertTrue(pose.detected, encoding)
+            self.assertAlmostEqual(pose.distance, reference.distance, delta=0.005 * reference.distance,
+                                   msg=encoding)
+            self.assertAlmostEqual(pose.yaw, reference.yaw, delta=math.radians(0.05), msg=encoding)
+
     def test_reconfigure_changes_the_detector_and_rejects_inconsistent_values(self):
         client = dynamic_reconfigure.client.Client("/spool_detector", timeout=30)
         try:
