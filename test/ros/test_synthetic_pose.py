@@ -103,6 +103,10 @@ class SyntheticPoseTest(unittest.TestCase):
             "yuv422_yuy2": (np.dstack([grey, chroma]).reshape(grey.shape[0], -1), False),
             "yuv422": (np.dstack([chroma, grey]).reshape(grey.shape[0], -1), False),
             "bayer_rggb8": (grey, False),
+            "bayer_bggr8": (grey, False),
+            "bayer_gbrg8": (grey, False),
+            "bayer_grbg8": (grey, False),
+            "bayer_rggb16": (grey.astype(np.uint16) * 257, False),
             "bgr16": (np.dstack([grey, grey, grey]).astype(np.uint16) * 257, False),
             "mono16": (grey.astype(">u2") * 257, True),
         }
