@@ -60,4 +60,15 @@ void setRosParam(const ros::NodeHandle& pnh, const std::string& key, const Param
     pnh.setParam(key, std::get<std::string>(value));
 }
 
+std::string refusalMessage(const std::string& node_name, const std::exception& error)
+{
+  const auto* param = dynamic_cast<const ParamError*>(&error);
+  if (!param)
+    return error.what();
+  return std::string(error.what()) + ". Fix it in the YAML you start with (`roslaunch spool_vision " +
+         "spool_detector.launch config:=FILE`, which clears " + node_name +
+         "'s parameters before loading it), or delete a value left by an earlier run: `rosparam delete " + node_name +
+         "/" + param->key() + "`";
+}
+
 }  // namespace spool_vision

@@ -16,6 +16,10 @@ namespace spool_vision
 /// a launch or YAML file stops the node instead of being ignored. Throws ParamError.
 void loadParamsFromRos(const ros::NodeHandle& pnh, const std::set<std::string>& ros_keys, DetectorParams& params);
 
+/// Why node `node_name` refuses to start, and for a bad parameter how to fix it: a value left on
+/// the parameter server by an earlier run blocks every later plain start until it is deleted.
+std::string refusalMessage(const std::string& node_name, const std::exception& error);
+
 /// Writes `value` to `pnh` under `key` with its natural XML-RPC type.
 void setRosParam(const ros::NodeHandle& pnh, const std::string& key, const ParamValue& value);
 

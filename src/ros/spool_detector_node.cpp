@@ -3,6 +3,7 @@
 
 #include <ros/ros.h>
 
+#include "ros_params.h"
 #include "spool_detector_ros.h"
 
 int main(int argc, char** argv)
@@ -17,7 +18,8 @@ int main(int argc, char** argv)
   }
   catch (const std::exception& e)
   {
-    ROS_FATAL("%s: refusing to start: %s", ros::this_node::getName().c_str(), e.what());
+    ROS_FATAL("%s: refusing to start: %s", ros::this_node::getName().c_str(),
+              spool_vision::refusalMessage(ros::this_node::getName(), e).c_str());
     return 1;
   }
   ros::spin();

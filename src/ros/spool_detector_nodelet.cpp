@@ -4,6 +4,7 @@
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "ros_params.h"
 #include "spool_detector_ros.h"
 
 namespace spool_vision
@@ -21,7 +22,7 @@ private:
     }
     catch (const std::exception& e)
     {
-      NODELET_FATAL("refusing to start: %s", e.what());
+      NODELET_FATAL("refusing to start: %s", refusalMessage(getName(), e).c_str());
       throw;  // the manager then reports the load as failed
     }
   }

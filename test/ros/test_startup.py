@@ -2,6 +2,7 @@
 """rostest: the node refuses to start on a bad or unknown private parameter, and says which key
 and what it may be. Each case starts the node binary under its own name and expects exit 1."""
 import subprocess
+import time
 import unittest
 
 import roslib.packages
@@ -38,6 +39,34 @@ class StartupTest(unittest.TestCase):
 
     def test_out_of_range_number(self):
         self.assert_refused(["_sensitivity:=1.5"], "'sensitivity'", "[0, 0.99]")
+
+    def test_refusal_says_how_to_fix_it(self):
+        name = "startup_case_%d" % (StartupTest.count + 1)
+        self.assert_refused(["_sensitivity:=1.5"], "config:=FILE",
+                            "rosparam delete /%s/sensitivity" % name)
+
+    def test_a_stale_bad_value_does_not_block_the_launch_file(self):
+        # A key left on the server by an earlier `rosrun spool_vision spool_detector _config:=X`
+        # (no such parameter; the YAML does not overwrite it): the launch file clears the node's
+        # namespace before loading the YAML, so the node starts.
+        name = "stale_case"
+        rospy.set_param("/%s/config" % name, "/tmp/mine.yaml")
+        launch = subprocess.Popen(["roslaunch", "spool_vision", "spool_detector.launch", "name:=" + name],
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
+        try:
+            deadline = time.time() + TIMEOUT
+            while time.time() < deadline and launch.poll() is None:
+                if not rospy.has_param("/%s/config" % name) and \
+                        "/" + name in subprocess.run(["rosnode", "list"], stdout=subprocess.PIPE,
+                                                     universal_newlines=True).stdout.split():
+                    break
+                time.sleep(0.5)
+            self.assertIsNone(launch.poll(), "the node stopped: stale value not cleared")
+            self.assertFalse(rospy.has_param("/%s/config" % name))
+            self.assertEqual(rospy.get_param("/%s/sensitivity" % name), 0.55)
+        finally:
+            launch.terminate()
+            launch.wait(timeout=30)
 
     def test_wrong_type(self):
         self.assert_refused(["_max_candidates:=many"], "'max_candidates'", "[1, 64]")
