@@ -1,6 +1,7 @@
 #include "spool_detector_ros.h"
 
 #include <algorithm>
+#include <cctype>
 #include <stdexcept>
 #include <string>
 
@@ -22,6 +23,7 @@ namespace enc = sensor_msgs::image_encodings;
 
 // Bad input can arrive at frame rate; one line per period is enough to see it in the log.
 constexpr double kErrorThrottlePeriod = 5.0;
+constexpr std::size_t kMaxErrorKinds = 64;
 
 std::optional<PixelFormat> pixelFormatOf(const std::string& encoding)
 {
@@ -216,14 +218,33 @@ void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg)
   {
     // cv_bridge::Exception, cv::Exception and std::invalid_argument (bad image) all land here;
     // the controller still gets a message for the frame, with nothing detected.
-    ROS_ERROR_THROTTLE(kErrorThrottlePeriod, "spool_detector: cannot process image %u (%s, %ux%u): %s", msg->header.seq,
-                       msg->encoding.c_str(), msg->width, msg->height, e.what());
+    if (shouldLogError(msg->encoding, e.what()))
+      ROS_ERROR("spool_detector: cannot process image %u (%s, %ux%u): %s", msg->header.seq, msg->encoding.c_str(),
+                msg->width, msg->height, e.what());
     const auto& g = detector_.params().geometry;
     pose_pub_.publish(undefinedSpoolPose(msg->header, (g.hole_diameter - g.puller_diameter) / 2.0));
     ++window_failed_;
   }
   frequency_status_->tick();
   window_callback_ms_ += (ros::WallTime::now() - start).toSec() * 1000.0;
+}
+
+bool SpoolDetectorRos::shouldLogError(const std::string& encoding, const std::string& what)
+{
+  // One line per kind of error and period: the kind is the encoding and the message without its
+  // numbers (sizes, byte counts), so a different problem is never hidden behind an earlier one.
+  std::string kind = encoding + ": ";
+  for (const char c : what)
+    if (!std::isdigit(static_cast<unsigned char>(c)))
+      kind += c;
+  const ros::WallTime now = ros::WallTime::now();
+  if (last_error_log_.size() > kMaxErrorKinds)
+    last_error_log_.clear();  // bounded: garbage input can make up endless kinds
+  const auto it = last_error_log_.find(kind);
+  if (it != last_error_log_.end() && (now - it->second).toSec() < kErrorThrottlePeriod)
+    return false;
+  last_error_log_[kind] = now;
+  return true;
 }
 
 void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg)

@@ -2,6 +2,7 @@
 // One class behind both the `spool_detector` node and the SpoolDetectorNodelet.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <optional>
 #include <set>
@@ -39,6 +40,8 @@ private:
   void cameraInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
   void reconfigureCallback(SpoolDetectorConfig& config, uint32_t level);
   void processImage(const sensor_msgs::ImageConstPtr& msg);
+  /// True when an input error of this kind was not logged in the last throttle period.
+  bool shouldLogError(const std::string& encoding, const std::string& what);
   void reportCameraSource(const sensor_msgs::Image& msg);
   void diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status);
 
@@ -71,6 +74,7 @@ private:
   int window_frames_ = 0;
   int window_detected_ = 0;
   int window_failed_ = 0;
+  std::map<std::string, ros::WallTime> last_error_log_;  ///< per kind of input error
   cv::Mat converted_;  ///< frames the adapter converts itself (YUYV/UYVY, big-endian mono16)
   double window_detector_ms_ = 0.0;
   double window_detector_max_ms_ = 0.0;
