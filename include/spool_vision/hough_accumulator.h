@@ -36,7 +36,7 @@ public:
 private:
   cv::Mat gx_, gy_, mag_;
   std::vector<int> strengths_;  ///< squared gradient magnitude of each extracted edge
-  std::vector<int> order_;      ///< scratch for the budget's selection
+  std::vector<int> selection_;  ///< scratch for the budget's nth_element
 };
 
 /// Where a spool's back flange appears behind a front flange rim (x, y, r) seen through a
@@ -152,6 +152,10 @@ private:
   bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                      const Peak& peak, double slack, const BackFlange& back, Circle& circle);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
+  /// Fills near_ with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
+  /// zero = all round).
+  void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,
+                  const cv::Point2d& side);
 
   cv::Mat votes_;
   cv::Mat smoothed_;

@@ -217,9 +217,9 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
     return;
   // Over budget: keep the strongest max_edges, in their row-major order (ties at the cut are
   // taken first come).
-  order_.assign(strengths_.begin(), strengths_.end());
-  const auto cut = order_.end() - static_cast<std::ptrdiff_t>(max_edges);
-  std::nth_element(order_.begin(), cut, order_.end());
+  selection_.assign(strengths_.begin(), strengths_.end());
+  const auto cut = selection_.end() - static_cast<std::ptrdiff_t>(max_edges);
+  std::nth_element(selection_.begin(), cut, selection_.end());
   const int cutoff = *cut;
   std::size_t above = 0;
   for (const int s : strengths_)
@@ -425,6 +425,24 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
   return true;
 }
 
+void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner,
+                                  double outer, const cv::Point2d& side)
+{
+  const double inner2 = inner > 0.0 ? inner * inner : 0.0;
+  const double outer2 = outer * outer;
+  near_.clear();
+  for (const EdgePoint& e : edges)
+  {
+    const double vy = e.y - centre.y;
+    if (vy * vy > outer2)
+      continue;
+    const double vx = e.x - centre.x;
+    const double d2 = vx * vx + vy * vy;
+    if (d2 >= inner2 && d2 <= outer2 && vx * side.x + vy * side.y >= 0.0)
+      near_.push_back(e);
+  }
+}
+
 bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                               Circle& circle)
 {
@@ -443,19 +461,7 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   // Only edges near the starting circle can join the fit (a fit that moves further has lost its
   // rim): gathered once, so the passes below do not each walk every edge of the frame.
   const double reach = 2.0 * std::max(1.5, kBands[0] * circle.r) + 2.0;
-  const double inner2 = std::pow(std::max(0.0, circle.r - reach), 2);
-  const double outer2 = std::pow(circle.r + reach, 2);
-  near_.clear();
-  for (const EdgePoint& e : edges)
-  {
-    const double vy = e.y - circle.y;
-    if (vy * vy > outer2)
-      continue;
-    const double vx = e.x - circle.x;
-    const double d2 = vx * vx + vy * vy;
-    if (d2 >= inner2 && d2 <= outer2)
-      near_.push_back(e);
-  }
+  gatherNear(edges, {circle.x, circle.y}, circle.r - reach, circle.r + reach, {});
   // Four fitting passes, then one that only counts the support of the final model: a fit to a
   // short arc can move far, and the score must describe the circle returned, not the last input.
   constexpr int kFits = 4;
@@ -572,17 +578,8 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   const float sign = centreSign(search.polarity);
   const double mean_r = std::sqrt(semi_x * semi_y);
   const double band = std::max(0.75, 0.04 * mean_r);
-  const double inner = std::max(0.0, std::min(semi_x, semi_y) - max_shift - band);
-  const double outer = std::max(semi_x, semi_y) + max_shift + band;
-  near_.clear();
-  for (const EdgePoint& e : edges)
-  {
-    const double vx = e.x - start.x;
-    const double vy = e.y - start.y;
-    const double d2 = vx * vx + vy * vy;
-    if (d2 >= inner * inner && d2 <= outer * outer && vx * side.x + vy * side.y >= 0.0)
-      near_.push_back(e);
-  }
+  gatherNear(edges, start, std::min(semi_x, semi_y) - max_shift - band, std::max(semi_x, semi_y) + max_shift + band,
+             side);
   // Edges within the band about the ellipse centred at c, each weighted by how close it lies to
   // the ellipse (a soft count, so the best centre is found to a fraction of the grid step).
   auto support = [&](const cv::Point2d& c, int* count)
@@ -607,7 +604,7 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   double best_soft = -1.0;
   auto search_grid = [&](const cv::Point2d& around, double reach, double step)
   {
-    const cv::Point2d from = around;
+    const cv::Point2d from = around;  // a copy: `around` may be `best`, which moves below
     const int steps = static_cast<int>(std::ceil(reach / step));
     for (int iy = -steps; iy <= steps; ++iy)
       for (int ix = -steps; ix <= steps; ++ix)

@@ -97,6 +97,13 @@ std::size_t SpoolDetector::edgeBudget(cv::Size size) const
   return static_cast<std::size_t>(params_.hough.edge_budget * (size.width + size.height));
 }
 
+void SpoolDetector::extractHoleEdges(const cv::Rect2d& centres, double reach)
+{
+  const cv::Rect window(cvFloor(centres.x - reach), cvFloor(centres.y - reach), cvCeil(centres.width + 2.0 * reach) + 1,
+                        cvCeil(centres.height + 2.0 * reach) + 1);
+  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+}
+
 void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min,
                                  double hole_max, SpoolDetection& result)
 {
@@ -202,10 +209,7 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   if (semi_y < kMinRadius)
     return;
   Circle& hole = result.hole;
-  const double reach = std::max(semi_x, semi_y) + 0.25 * semi_y + 3.0;
-  const cv::Rect window(cvFloor(hole.x - reach), cvFloor(hole.y - reach), cvCeil(2.0 * reach) + 1,
-                        cvCeil(2.0 * reach) + 1);
-  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), std::max(semi_x, semi_y) + 0.25 * semi_y + 3.0);
   HoughSearch search;
   search.polarity = params_.hough.hole_polarity;
   // Deeper in the bore a circle of the wall projects nearer the principal point (as the back
@@ -213,9 +217,9 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   // side away from it: a band about |hole - principal point| * depth / Z px wide for the ~1.5 cm
   // of wall the light reaches. Where that is a fraction of a pixel the whole rim counts; else
   // only its half facing the principal point, which is sharp.
-  const cv::Point2d pp = matcher_.backFlange().principal_point;
-  const cv::Point2d outward(hole.x - pp.x, hole.y - pp.y);
-  const double depth = geometryFor(preprocessed_.size()).depthFromDiameter(2.0 * flange.r_vertical);
+  const CameraIntrinsics& camera = geometry_->camera();
+  const cv::Point2d outward(hole.x - camera.cx, hole.y - camera.cy);
+  const double depth = geometry_->depthFromDiameter(2.0 * flange.r_vertical);
   constexpr double kLitWall = 0.015;  // m
   const cv::Point2d side = std::hypot(outward.x, outward.y) * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
   Circle fitted;
@@ -237,9 +241,7 @@ void SpoolDetector::findLens(SpoolDetection& result)
   search.r_min = std::max(1.0, 0.3 * rim.r);
   search.r_max = 0.9 * rim.r;  // a lens as big as the rim is the rim itself
   search.center_window = cv::Rect2d(rim.x - 0.5 * rim.r, rim.y - 0.5 * rim.r, rim.r, rim.r);
-  const cv::Rect window(cvFloor(rim.x - rim.r - 2.0), cvFloor(rim.y - rim.r - 2.0), cvCeil(2.0 * rim.r) + 5,
-                        cvCeil(2.0 * rim.r) + 5);
-  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+  extractHoleEdges(cv::Rect2d(rim.x, rim.y, 0.0, 0.0), rim.r + 2.0);
   lens_hough_.detect(hole_edges_, preprocessed_.size(), search, lenses_);
   for (const Circle& lens : lenses_)
     if (std::hypot(lens.x - rim.x, lens.y - rim.y) + lens.r <= 1.1 * rim.r + 1.0)  // touching it inside
@@ -352,10 +354,7 @@ std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const 
 {
   // Only edges that can lie on the hole's rim, at the hole's own threshold.
   const cv::Rect2d& w = hole_search.center_window;
-  const double reach = hole_search.r_max + 2.0;
-  const cv::Rect window(cvFloor(w.x - reach), cvFloor(w.y - reach), cvCeil(w.width + 2.0 * reach) + 1,
-                        cvCeil(w.height + 2.0 * reach) + 1);
-  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+  extractHoleEdges(w, hole_search.r_max + 2.0);
   hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
   // A hole off the fitted centre may mean the fit followed the front and back flanges' joint
   // silhouette: the front rim is then measured again about the hole (the spool's axis); that

@@ -21,14 +21,22 @@ using spool_vision::test::SceneStyle;
 namespace
 {
 constexpr std::size_t kNoBudget = std::numeric_limits<std::size_t>::max();
+
+// Every edge of `gray` above `threshold` (no budget).
+std::vector<EdgePoint> edgesOf(const cv::Mat& gray, double threshold)
+{
+  EdgeDetector detector;
+  std::vector<EdgePoint> edges;
+  detector.detect(gray, threshold, kNoBudget, edges);
+  return edges;
+}
+
 std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polarity polarity,
                          cv::Rect2d window = cv::Rect2d(), double threshold = 0.05)
 {
   cv::Mat smooth;
   cv::GaussianBlur(gray, smooth, cv::Size(), 1.0);
-  EdgeDetector edges;
-  std::vector<EdgePoint> points;
-  edges.detect(smooth, threshold, kNoBudget, points);
+  const std::vector<EdgePoint> points = edgesOf(smooth, threshold);
   HoughSearch search;
   search.r_min = r_min;
   search.r_max = r_max;
@@ -205,9 +213,7 @@ TEST(HoughAccumulator, FitAtMeasuresTheFrontRimAboutAKnownCentre)
   const cv::Mat img = drawSceneGray({640, 480}, {{320 + k * (x - 320), 240 + k * (y - 240), k * r, 0}, {x, y, r, 0}});
   cv::Mat smooth;
   cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
-  EdgeDetector detector;
-  std::vector<EdgePoint> edges;
-  detector.detect(smooth, 0.05, kNoBudget, edges);
+  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.05);
   HoughSearch search;
   search.r_min = 100;
   search.r_max = 200;
@@ -240,9 +246,7 @@ TEST(HoughAccumulator, FitAtWithAnEmptyRadiusRangeFindsNothing)
   // A front rim measured about a hole with radii beyond the search range (found on a 1280x720
   // frame of clutter, where it threw std::length_error).
   const cv::Mat img = drawSceneGray({640, 480}, {{320, 240, 150, 0}});
-  EdgeDetector detector;
-  std::vector<EdgePoint> edges;
-  detector.detect(img, 0.05, kNoBudget, edges);
+  const std::vector<EdgePoint> edges = edgesOf(img, 0.05);
   HoughSearch search;
   search.r_min = 200;
   search.r_max = 120;
