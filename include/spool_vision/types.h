@@ -1,7 +1,9 @@
 // Plain value types shared by every stage of the ROS-free core.
 #pragma once
 
+#include <algorithm>
 #include <limits>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -35,7 +37,11 @@ struct Circle
   double visible_fraction = 0.0;
 };
 
-/// Pinhole intrinsics of the (rectified) image the detector sees.
+/// The camera of the frames the detector gets: pinhole intrinsics (px) of an image of
+/// width x height and its lens distortion, as ROS's image_geometry::PinholeCameraModel reads a
+/// sensor_msgs/CameraInfo: a raw image is K with D, a rectified one P with no distortion; binning
+/// and ROI already applied (K of the delivered image, D unchanged: it acts on normalised
+/// coordinates).
 struct CameraIntrinsics
 {
   double fx = 0.0;
@@ -44,15 +50,26 @@ struct CameraIntrinsics
   double cy = 0.0;
   int width = 0;
   int height = 0;
+  /// OpenCV's order, which is ROS's: plumb_bob (k1, k2, p1, p2, k3) or rational_polynomial
+  /// (k1, k2, p1, p2, k3, k4, k5, k6); empty or all zero = an undistorted (or rectified) image.
+  std::vector<double> distortion;
 
   bool valid() const
   {
-    return fx > 0.0 && fy > 0.0 && width > 0 && height > 0;
+    return fx > 0.0 && fy > 0.0 && width > 0 && height > 0 &&
+           (distortion.empty() || distortion.size() == 4 || distortion.size() == 5 || distortion.size() == 8);
+  }
+
+  /// True when the image must be undistorted before it is measured.
+  bool distorted() const
+  {
+    return std::any_of(distortion.begin(), distortion.end(), [](double d) { return d != 0.0; });
   }
 
   bool operator==(const CameraIntrinsics& o) const
   {
-    return fx == o.fx && fy == o.fy && cx == o.cx && cy == o.cy && width == o.width && height == o.height;
+    return fx == o.fx && fy == o.fy && cx == o.cx && cy == o.cy && width == o.width && height == o.height &&
+           distortion == o.distortion;
   }
   bool operator!=(const CameraIntrinsics& o) const
   {
@@ -111,11 +128,23 @@ struct SpoolDetection
   bool detected = false;         ///< flange found
   bool hole_detected = false;    ///< a hole that passed the matcher
   bool overlapped = false;       ///< flange and hole centres on the reference point (Rule 3)
-  bool aligned = false;          ///< safe to insert: overlapped, yaw and lateral error small, in window
-  double distance = kNaN;        ///< m, range from the optical centre to the flange centre
-  double yaw = kNaN;             ///< rad, positive when the spool appears right of the reference
-  double lateral_offset = kNaN;  ///< m, distance * tan(yaw)
-  double tolerance = 0.0;        ///< m, t_f = (hole - puller) / 2
+  /// Safe to insert: overlapped, in the insertion window, |yaw| small, and the puller's axis
+  /// within tolerance of the bore's axis at the bore's front and back ends (SpoolGeometry::measure)
+  bool aligned = false;
+  /// m, depth: z of the bore's front centre in the camera optical frame (thesis Eq. 3.2)
+  double distance = kNaN;
+  double range = kNaN;  ///< m, optical centre to the bore's front centre
+  double yaw = kNaN;    ///< rad, positive when the spool appears right of the reference
+  /// m, x of the bore's front centre relative to the puller axis, camera optical frame (Eq. 3.8)
+  double lateral_offset = kNaN;
+  double tolerance = 0.0;  ///< m, t_f = (hole - puller) / 2
+  /// m, the bore's front centre in the camera optical frame (REP 103: x right, y down, z forward)
+  cv::Point3d position{kNaN, kNaN, kNaN};
+  /// Unit vector along the spool axis, from the front face into the spool, camera optical frame
+  cv::Vec3d axis{kNaN, kNaN, kNaN};
+  double axis_angle = kNaN;  ///< rad, between the spool axis and the puller axis (optical z)
+  /// rad, atan2(axis.x, axis.z): positive when the axis, followed into the spool, heads right
+  double axis_yaw = kNaN;
   double confidence = 0.0;       ///< 0..1: with a hole 0.5 + 0.5 * min(rim scores), flange alone 0.5 * its score
   Circle flange;
   Circle hole;  ///< the bore's front rim
