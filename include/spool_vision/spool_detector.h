@@ -38,7 +38,10 @@ public:
   }
 
   /// Processes one frame. Throws std::invalid_argument on an empty, too small or mistyped
-  /// image. Steady state (same size and format) does not allocate.
+  /// image. Steady state (same size and format) does not allocate. A camera with lens
+  /// distortion has its frames undistorted first; the circle centres and the reference in the
+  /// result are then mapped back to where they appear in the frame given (their radii stay those
+  /// of the undistorted image), while the candidates and preprocessed() below stay undistorted.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format);
 
   /// Intermediate results of the last frame, for overlays and debugging.
@@ -60,6 +63,8 @@ public:
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
+  /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
+  static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
   /// The most edges kept from a region of `size` (edge_budget).
   std::size_t edgeBudget(cv::Size size) const;
   /// hole_edges_: the edges at hole_edge_threshold of a rim whose centre lies in `centres`

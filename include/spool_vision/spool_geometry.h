@@ -20,14 +20,27 @@ public:
     return camera_;
   }
 
-  /// Range (m) from the optical centre to a flange seen with vertical semi-axis `r_vertical`
-  /// (px) centred at (u, v): Eq. 3.2 with the calibrated focal length, corrected for the ray
-  /// angle. Uses the vertical extent because it is exact under yaw and survives a rim cut at
-  /// the left or right border.
-  double distance(double u, double v, double r_vertical) const;
-
   /// Eq. 3.2 verbatim: f * flange diameter / diameter_px (depth along the axis, m).
   double depthFromDiameter(double diameter_px) const;
+
+  /// The flange rim as a 35 cm circle in 3D, centred on the ray through `centre` (px, the
+  /// projection of the bore's front centre: the hole's centre, which stays within ~0.1 px of it):
+  /// the depth and the unit normal (spool axis) whose image conic has the rim's measured ellipse
+  /// centre and vertical semi-axis. Perspective moves the ellipse centre off the projected centre
+  /// by about f (R/Z)^2 n_xy n_z (R the flange radius), so that offset gives the axis, and unlike
+  /// the ellipse's eccentricity (1 - cos) it is linear in the angle and has its sign. Gauss-Newton
+  /// on the exact conic of a circle (Q = (n.C)^2 I - (n.C)(n C^T + C n^T) + (|C|^2 - R^2) n n^T,
+  /// camera optical frame, normalised image coordinates). Starts from Eq. 3.2 and the optical
+  /// axis; returns false (outputs untouched) when it does not converge.
+  bool rimPose(const Circle& flange, const cv::Point2d& centre, cv::Point3d& position, cv::Vec3d& axis) const;
+
+  /// The point at `depth` (m) seen at pixel (u, v), camera optical frame (pinhole).
+  cv::Point3d backProject(double u, double v, double depth) const;
+
+  /// How far (m) the puller's axis passes from the bore's axis at the bore's front and at its
+  /// back end (hub_length along `axis`), for a bore whose front centre is `position`; the
+  /// puller runs parallel to the optical axis through (puller_offset_x, puller_offset_y).
+  void pullerMiss(const cv::Point3d& position, const cv::Vec3d& axis, double& front, double& back) const;
 
   /// Yaw (rad) of a flange centred at column u, relative to the reference column.
   /// pinhole: atan((u - u_ref) / fx); linear_fov: FOV / sqrt(w^2 + h^2) * (u - u_ref).
@@ -54,8 +67,11 @@ public:
   /// t_f = (hole - puller) / 2 in metres (0.25 cm for the thesis spool).
   double tolerance() const;
 
-  /// Fills distance, yaw, reference, lateral offset, overlap and alignment of `detection`
-  /// from its flange and (if hole_detected) hole.
+  /// Fills depth (distance), range, position, axis, yaw, reference, lateral offset, overlap and
+  /// alignment of `detection` from its flange and (if hole_detected) hole. With a hole the pose
+  /// is rimPose()'s; without one the flange centre and Eq. 3.2 give the position and the axis is
+  /// NaN. Aligned: overlapped (Rule 3), depth in the insertion window, |yaw| <= aligned_max_yaw
+  /// and pullerMiss() within t_f at both ends of the bore (Eq. 3.8, taken along the bore).
   void measure(SpoolDetection& detection) const;
 
 private:

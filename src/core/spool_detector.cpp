@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "spool_vision/camera_model.h"
+
 namespace spool_vision
 {
 SpoolDetector::SpoolDetector(const DetectorParams& params)
@@ -50,6 +52,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
   geometry_.emplace(params_.geometry, camera);
   matcher_ = ConcentricMatcher(params_.matcher, params_.geometry, camera);
   preprocessor_.setParams(params_.preprocess, camera.fy);
+  preprocessor_.setUndistortion(camera);
   return *geometry_;
 }
 
@@ -88,8 +91,28 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   selectTarget(geometry.reference(geometry.nominalDistance()), flange_search, pick(hp.hole_radius_min, hole_min),
                pick(hp.hole_radius_max, hole_max), result);
   geometry.measure(result);
+  toFramePixels(geometry.camera(), result);
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result)
+{
+  if (!camera.distorted())
+    return;
+  auto move = [&camera](double& x, double& y)
+  {
+    const cv::Point2d p = distortPixel(camera, {x, y});
+    x = p.x;
+    y = p.y;
+  };
+  move(result.reference.x, result.reference.y);
+  if (result.detected)
+    move(result.flange.x, result.flange.y);
+  if (result.hole_detected)
+    move(result.hole.x, result.hole.y);
+  if (result.lens_detected)
+    move(result.lens.x, result.lens.y);
 }
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const

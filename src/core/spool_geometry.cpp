@@ -1,11 +1,37 @@
 #include "spool_vision/spool_geometry.h"
 
+#include <algorithm>
 #include <cmath>
 
-#include <Eigen/Core>
+#include <Eigen/Dense>
 
 namespace spool_vision
 {
+namespace
+{
+// Centre and vertical semi-axis (normalised image coordinates) of the image of a circle of
+// radius r about c with unit normal n; false when the image is no ellipse.
+bool rimImage(const Eigen::Vector3d& c, const Eigen::Vector3d& n, double r, Eigen::Vector3d& out)
+{
+  const double nc = n.dot(c);
+  Eigen::Matrix3d q = nc * nc * Eigen::Matrix3d::Identity() - nc * (n * c.transpose() + c * n.transpose()) +
+                      (c.squaredNorm() - r * r) * n * n.transpose();
+  if (q(0, 0) < 0.0)
+    q = -q;
+  const Eigen::Matrix2d a = q.topLeftCorner<2, 2>();
+  const double det = a.determinant();
+  if (!(det > 0.0) || !(a(0, 0) > 0.0))
+    return false;
+  const Eigen::Vector2d centre = -a.inverse() * q.topRightCorner<2, 1>();
+  // (x - centre)^T a (x - centre) = k on the rim.
+  const double k = -(q(2, 2) + q.topRightCorner<2, 1>().dot(centre));
+  if (!(k > 0.0))
+    return false;
+  out = {centre.x(), centre.y(), std::sqrt(k * a(0, 0) / det)};
+  return true;
+}
+}  // namespace
+
 SpoolGeometry::SpoolGeometry(const GeometryParams& params, const CameraIntrinsics& camera)
   : params_(params), camera_(camera)
 {
@@ -16,12 +42,66 @@ double SpoolGeometry::depthFromDiameter(double diameter_px) const
   return camera_.fy * params_.flange_diameter / diameter_px;
 }
 
-double SpoolGeometry::distance(double u, double v, double r_vertical) const
+cv::Point3d SpoolGeometry::backProject(double u, double v, double depth) const
 {
-  // Eq. 3.2 gives the depth of the flange centre; the range follows along its viewing ray.
-  const double depth = depthFromDiameter(2.0 * r_vertical);
-  const Eigen::Vector3d ray((u - camera_.cx) / camera_.fx, (v - camera_.cy) / camera_.fy, 1.0);
-  return depth * ray.norm();
+  return {(u - camera_.cx) / camera_.fx * depth, (v - camera_.cy) / camera_.fy * depth, depth};
+}
+
+bool SpoolGeometry::rimPose(const Circle& flange, const cv::Point2d& centre, cv::Point3d& position,
+                            cv::Vec3d& axis) const
+{
+  const double radius = 0.5 * params_.flange_diameter;
+  const Eigen::Vector3d ray((centre.x - camera_.cx) / camera_.fx, (centre.y - camera_.cy) / camera_.fy, 1.0);
+  // Measured ellipse in px; unknowns: depth and the normal's slopes (n ~ (a, b, 1)).
+  const Eigen::Vector3d measured(flange.x, flange.y, flange.r_vertical);
+  auto predict = [&](const Eigen::Vector3d& p, Eigen::Vector3d& px)
+  {
+    Eigen::Vector3d image;
+    if (!rimImage(p.x() * ray, Eigen::Vector3d(p.y(), p.z(), 1.0).normalized(), radius, image))
+      return false;
+    px = {camera_.cx + camera_.fx * image.x(), camera_.cy + camera_.fy * image.y(), camera_.fy * image.z()};
+    return true;
+  };
+  Eigen::Vector3d p(depthFromDiameter(2.0 * flange.r_vertical), 0.0, 0.0);
+  constexpr int kIterations = 8;
+  constexpr double kStep = 1e-6;
+  for (int i = 0; i < kIterations; ++i)
+  {
+    Eigen::Vector3d at;
+    if (!predict(p, at))
+      return false;
+    Eigen::Matrix3d jacobian;
+    for (int j = 0; j < 3; ++j)
+    {
+      Eigen::Vector3d moved = p;
+      moved(j) += kStep;
+      Eigen::Vector3d there;
+      if (!predict(moved, there))
+        return false;
+      jacobian.col(j) = (there - at) / kStep;
+    }
+    const Eigen::Vector3d step = jacobian.colPivHouseholderQr().solve(measured - at);
+    if (!step.allFinite())
+      return false;
+    p += step;
+    if (!(p.x() > 0.0))
+      return false;
+    if (step.cwiseAbs().maxCoeff() < 1e-9)
+      break;
+  }
+  const Eigen::Vector3d c = p.x() * ray;
+  const Eigen::Vector3d n = Eigen::Vector3d(p.y(), p.z(), 1.0).normalized();
+  position = {c.x(), c.y(), c.z()};
+  axis = {n.x(), n.y(), n.z()};
+  return true;
+}
+
+void SpoolGeometry::pullerMiss(const cv::Point3d& position, const cv::Vec3d& axis, double& front, double& back) const
+{
+  const cv::Point2d puller(params_.puller_offset_x, params_.puller_offset_y);
+  front = std::hypot(position.x - puller.x, position.y - puller.y);
+  back = std::hypot(position.x + params_.hub_length * axis[0] - puller.x,
+                    position.y + params_.hub_length * axis[1] - puller.y);
 }
 
 double SpoolGeometry::yaw(double u, double u_ref) const
@@ -82,21 +162,34 @@ void SpoolGeometry::measure(SpoolDetection& d) const
     d.reference = reference(nominalDistance());
     return;
   }
-  d.distance = distance(d.flange.x, d.flange.y, d.flange.r_vertical);
-  // The puller reference is placed at the flange's depth, where the hole is.
-  const double depth = depthFromDiameter(2.0 * d.flange.r_vertical);
-  d.reference = reference(depth);
-  // Under perspective the flange rim's ellipse centre drifts from the spool's true centre
-  // (about f R^2 sin(b) cos(b) / Z^2); the small hole's centre stays within ~0.1 px of it.
-  d.yaw = yaw(d.hole_detected ? d.hole.x : d.flange.x, d.reference.x);
-  d.lateral_offset = d.distance * std::tan(d.yaw);
+  // The bore's front centre projects onto the hole's centre; without a hole the flange's centre
+  // stands in for it (off by up to f (R/Z)^2 sin(tilt) px) and the axis stays unknown.
+  const Circle& centre = d.hole_detected ? d.hole : d.flange;
+  if (!d.hole_detected || !rimPose(d.flange, {centre.x, centre.y}, d.position, d.axis))
+    d.position = backProject(centre.x, centre.y, depthFromDiameter(2.0 * d.flange.r_vertical));
+  d.distance = d.position.z;
+  d.range = std::sqrt(d.position.dot(d.position));
+  if (std::isfinite(d.axis[2]))
+  {
+    d.axis_angle = std::acos(std::clamp(d.axis[2], -1.0, 1.0));
+    d.axis_yaw = std::atan2(d.axis[0], d.axis[2]);
+  }
+  // The puller reference is placed at the bore's depth.
+  d.reference = reference(d.distance);
+  d.yaw = yaw(centre.x, d.reference.x);
+  d.lateral_offset = d.position.x - params_.puller_offset_x;
 
   const double tol = params_.overlap_tolerance * camera_.fy;
   auto on_reference = [&](const Circle& c)
   { return std::abs(c.x - d.reference.x) <= tol && std::abs(c.y - d.reference.y) <= tol; };
   d.overlapped = d.hole_detected && on_reference(d.flange) && on_reference(d.hole);
-  d.aligned = d.overlapped && std::abs(d.yaw) <= params_.aligned_max_yaw && std::abs(d.lateral_offset) <= d.tolerance &&
-              d.distance >= params_.aligned_distance_min && d.distance <= params_.aligned_distance_max;
+  double front_miss = SpoolDetection::kNaN;
+  double back_miss = SpoolDetection::kNaN;
+  pullerMiss(d.position, d.axis, front_miss, back_miss);
+  // NaN (no axis) compares false: no alignment without the spool's axis.
+  d.aligned = d.overlapped && std::abs(d.yaw) <= params_.aligned_max_yaw && front_miss <= d.tolerance &&
+              back_miss <= d.tolerance && d.distance >= params_.aligned_distance_min &&
+              d.distance <= params_.aligned_distance_max;
 }
 
 }  // namespace spool_vision

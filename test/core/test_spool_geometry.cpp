@@ -1,6 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 #include "spool_vision/spool_geometry.h"
 
@@ -32,14 +35,6 @@ TEST(SpoolGeometry, Equation32DepthFromDiameter)
   EXPECT_NEAR(g.depthFromDiameter(70.0), 1.0, 1e-12);
   // Appendix B, first row: 53.09 px at 160x120 -> 131.85 cm (measured 133 cm).
   EXPECT_NEAR(g.depthFromDiameter(53.09), 1.3185, 1e-4);
-}
-
-TEST(SpoolGeometry, RangeFollowsTheViewingRay)
-{
-  const SpoolGeometry g(GeometryParams(), kThesis);
-  // Centred: range == depth. 40 px right at f = 200: ray factor sqrt(1 + 0.2^2).
-  EXPECT_NEAR(g.distance(79.5, 59.5, 35.0), 1.0, 1e-12);
-  EXPECT_NEAR(g.distance(119.5, 59.5, 35.0), std::sqrt(1.04), 1e-12);
 }
 
 TEST(SpoolGeometry, LinearFovYawIsThreeTenthsOfADegreePerPixel)
@@ -116,7 +111,9 @@ TEST(SpoolGeometry, AlignedOnlyInTheWindowAndOnTheReference)
 
   SpoolDetection d = detectionAt(79.5, v55, 0.55);
   g.measure(d);
-  EXPECT_NEAR(d.distance, 0.55 * std::hypot(1.0, 0.06 / 0.55), 1e-9);
+  EXPECT_NEAR(d.distance, 0.55, 1e-9);
+  EXPECT_NEAR(d.range, std::hypot(0.55, 0.06), 1e-9);
+  EXPECT_NEAR(d.axis_angle, 0.0, 1e-9);
   EXPECT_NEAR(d.yaw, 0.0, 1e-12);
   EXPECT_TRUE(d.overlapped);
   EXPECT_TRUE(d.aligned);
@@ -130,7 +127,7 @@ TEST(SpoolGeometry, AlignedOnlyInTheWindowAndOnTheReference)
   g.measure(d);
   EXPECT_FALSE(d.overlapped);
   EXPECT_FALSE(d.aligned);
-  EXPECT_NEAR(d.lateral_offset, d.distance * std::tan(std::atan(2.5 / 200.0)), 1e-12);
+  EXPECT_NEAR(d.lateral_offset, 0.55 * 2.5 / 200.0, 1e-9);  // Eq. 3.8 at the depth
 
   d = detectionAt(79.5, v55, 0.55);
   d.hole_detected = false;  // no hole, no overlap
@@ -173,4 +170,99 @@ TEST(SpoolGeometry, UndetectedLeavesNumbersUndefined)
   EXPECT_TRUE(std::isnan(d.lateral_offset));
   EXPECT_NEAR(d.tolerance, 0.0025, 1e-12);
   EXPECT_FALSE(d.overlapped || d.aligned);
+}
+
+namespace
+{
+// The rim of a circle of radius r about c (m, camera frame) with normal n, imaged by `camera`
+// and measured the way the detector does: the centre of an ellipse fitted to it and half its
+// vertical extent. Independent of SpoolGeometry's conic.
+spool_vision::Circle imagedRim(const CameraIntrinsics& camera, const cv::Vec3d& c, cv::Vec3d n, double r)
+{
+  n = cv::normalize(n);
+  const cv::Vec3d a = cv::normalize(cv::Vec3d(0, 1, 0).cross(n));
+  const cv::Vec3d b = n.cross(a);
+  std::vector<cv::Point2f> rim;
+  double top = 1e9;
+  double bottom = -1e9;
+  for (int i = 0; i < 3600; ++i)
+  {
+    const double phi = 2.0 * M_PI * i / 3600;
+    const cv::Vec3d p = c + r * (std::cos(phi) * a + std::sin(phi) * b);
+    const double v = camera.cy + camera.fy * p[1] / p[2];
+    rim.emplace_back(static_cast<float>(camera.cx + camera.fx * p[0] / p[2]), static_cast<float>(v));
+    top = std::min(top, v);
+    bottom = std::max(bottom, v);
+  }
+  const cv::RotatedRect e = cv::fitEllipse(rim);
+  spool_vision::Circle circle;
+  circle.x = e.center.x;
+  circle.y = e.center.y;
+  circle.r = circle.r_vertical = 0.5 * (bottom - top);
+  return circle;
+}
+}  // namespace
+
+TEST(SpoolGeometry, RimPoseGivesDepthPositionAndAxisOfATiltedSpool)
+{
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  struct Case
+  {
+    cv::Vec3d centre;
+    double yaw_deg, pitch_deg;
+  };
+  for (const Case& k : {Case{{0.0, 0.06, 0.55}, 0.0, 0.0}, Case{{0.2, 0.06, 0.55}, 0.0, 0.0},
+                        Case{{0.0, 0.06, 0.55}, 1.0, 0.0}, Case{{0.15, 0.05, 0.6}, -4.0, 1.5},
+                        Case{{-0.35, 0.0, 1.05}, 5.0, -2.0}})
+  {
+    SCOPED_TRACE(::testing::Message() << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg);
+    const cv::Vec3d n(std::tan(k.yaw_deg * kDeg), std::tan(k.pitch_deg * kDeg), 1.0);
+    SpoolDetection d;
+    d.detected = d.hole_detected = true;
+    d.flange = imagedRim(camera, k.centre, n, 0.175);
+    d.hole.x = camera.cx + camera.fx * k.centre[0] / k.centre[2];
+    d.hole.y = camera.cy + camera.fy * k.centre[1] / k.centre[2];
+    d.hole.r = camera.fy * 0.018 / k.centre[2];
+    g.measure(d);
+    EXPECT_NEAR(d.distance, k.centre[2], 1e-4 * k.centre[2]);
+    EXPECT_NEAR(d.position.x, k.centre[0], 1e-4);
+    EXPECT_NEAR(d.position.y, k.centre[1], 1e-4);
+    EXPECT_NEAR(d.range, cv::norm(k.centre), 1e-4);
+    const cv::Vec3d truth = cv::normalize(n);
+    EXPECT_NEAR(d.axis_angle, std::acos(truth[2]), 0.01 * kDeg);
+    EXPECT_NEAR(d.axis_yaw, std::atan2(truth[0], truth[2]), 0.01 * kDeg);
+    EXPECT_NEAR(d.lateral_offset, k.centre[0], 1e-4);
+  }
+}
+
+TEST(SpoolGeometry, AnAxisThatWouldTakeThePullerIntoTheBoreWallIsNotAligned)
+{
+  // Centred on the puller at 55 cm: a 0.5 deg tilt moves the bore's back end 1.7 mm (inside
+  // t_f = 2.5 mm), a 1 deg tilt 3.5 mm (into the wall).
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  const cv::Vec3d centre(0.0, 0.06, 0.55);
+  for (const double deg : {0.5, 1.0})
+  {
+    SpoolDetection d;
+    d.detected = d.hole_detected = true;
+    d.flange = imagedRim(camera, centre, {std::tan(deg * kDeg), 0.0, 1.0}, 0.175);
+    d.hole.x = camera.cx;
+    d.hole.y = camera.cy + camera.fy * 0.06 / 0.55;
+    g.measure(d);
+    EXPECT_TRUE(d.overlapped);
+    EXPECT_EQ(d.aligned, deg < 0.7) << deg << " deg";
+  }
+}
+
+TEST(SpoolGeometry, WithoutAHoleThePositionIsTheFlangesAndTheAxisUnknown)
+{
+  SpoolDetection d = detectionAt(99.5, 59.5, 0.8);
+  d.hole_detected = false;
+  SpoolGeometry(GeometryParams(), kThesis).measure(d);
+  EXPECT_NEAR(d.distance, 0.8, 1e-9);
+  EXPECT_NEAR(d.position.x, 0.08, 1e-9);
+  EXPECT_TRUE(std::isnan(d.axis_angle));
+  EXPECT_FALSE(d.aligned);
 }
