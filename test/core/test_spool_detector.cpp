@@ -65,7 +65,8 @@ TEST(SpoolDetector, MeasuresACentredSpoolAt640x480)
   EXPECT_NEAR(d.flange.x, s.x, 0.5);
   EXPECT_NEAR(d.flange.y, s.y, 0.5);
   EXPECT_NEAR(d.hole.r, s.hole_r, 0.5);
-  EXPECT_NEAR(d.distance, range(0.8, 0, 0.06), 0.01 * 0.8);
+  EXPECT_NEAR(d.distance, 0.8, 0.01 * 0.8);  // depth
+  EXPECT_NEAR(d.range, range(0.8, 0, 0.06), 0.01 * 0.8);
   EXPECT_NEAR(d.yaw, 0.0, 0.1 * M_PI / 180);
   EXPECT_TRUE(d.overlapped);
   EXPECT_FALSE(d.aligned);  // 80 cm is outside the insertion window
@@ -79,7 +80,8 @@ TEST(SpoolDetector, AlignedInTheInsertionWindow)
   const SpoolDetection d = detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.55, 0.0, 0.06)}), PixelFormat::kBgr8);
   ASSERT_TRUE(d.detected);
   ASSERT_TRUE(d.hole_detected);
-  EXPECT_NEAR(d.distance, range(0.55, 0, 0.06), 0.01 * 0.55);
+  EXPECT_NEAR(d.distance, 0.55, 0.01 * 0.55);  // depth
+  EXPECT_NEAR(d.range, range(0.55, 0, 0.06), 0.01 * 0.55);
   EXPECT_TRUE(d.aligned);
 
   // 4 mm sideways is more than the 2.5 mm clearance.
@@ -96,8 +98,9 @@ TEST(SpoolDetector, YawAndLateralOffsetOfAnOffsetSpool)
   const SpoolDetection d = detector.detect(drawScene({640, 480}, {spoolAt(kVga, 0.9, 0.12, 0.06)}), PixelFormat::kBgr8);
   ASSERT_TRUE(d.detected);
   EXPECT_NEAR(d.yaw, std::atan(0.12 / 0.9), 0.1 * M_PI / 180);
-  EXPECT_NEAR(d.lateral_offset, 0.12 * d.distance / 0.9, 0.003);
-  EXPECT_NEAR(d.distance, range(0.9, 0.12, 0.06), 0.01 * 0.9);
+  EXPECT_NEAR(d.lateral_offset, 0.12, 0.003);
+  EXPECT_NEAR(d.distance, 0.9, 0.01 * 0.9);  // depth
+  EXPECT_NEAR(d.range, range(0.9, 0.12, 0.06), 0.01 * 0.9);
   EXPECT_FALSE(d.overlapped);
 }
 
@@ -112,7 +115,8 @@ TEST(SpoolDetector, WorksAt160x120WithACalibratedCamera)
   EXPECT_FALSE(detector.usingFallbackCamera());
   ASSERT_TRUE(d.detected);
   EXPECT_TRUE(d.hole_detected);
-  EXPECT_NEAR(d.distance, range(0.7, -0.03, 0.06), 0.02 * 0.7);
+  EXPECT_NEAR(d.distance, 0.7, 0.02 * 0.7);  // depth
+  EXPECT_NEAR(d.range, range(0.7, -0.03, 0.06), 0.02 * 0.7);
   EXPECT_LT(d.yaw, 0.0);
 }
 
@@ -145,7 +149,8 @@ TEST(SpoolDetector, MeasuresAnObliqueSpoolWhoseBackFlangeShowsBesideIt)
   EXPECT_NEAR(d.flange.x, front.x, 1.0);
   EXPECT_NEAR(d.flange.y, front.y, 1.0);
   EXPECT_NEAR(d.flange.r_vertical, front.flange_r, 0.01 * front.flange_r);
-  EXPECT_NEAR(d.distance, range(0.95, 0.33, 0.06), 0.01 * 0.95);
+  EXPECT_NEAR(d.distance, 0.95, 0.01 * 0.95);  // depth
+  EXPECT_NEAR(d.range, range(0.95, 0.33, 0.06), 0.01 * 0.95);
   EXPECT_NEAR(d.yaw, std::atan(0.33 / 0.95), 0.1 * M_PI / 180);
 }
 
