@@ -17,10 +17,14 @@ void loadParamsYaml(const std::string& path, DetectorParams& params);
 std::string paramsToYaml(const DetectorParams& params);
 
 /// Reads a camera-calibration YAML (camera_calibration / camera_info_manager format:
-/// image_width, image_height, camera_matrix.data[9], ...). Throws std::runtime_error.
+/// image_width, image_height, camera_matrix, distortion_model, distortion_coefficients,
+/// projection_matrix) as image_geometry reads a camera_info: with non-zero distortion (plumb_bob
+/// or rational_polynomial) the raw image's K and D; without, the rectified image's P (K when
+/// there is no projection_matrix). Throws std::runtime_error naming the file and the problem
+/// (another distortion model, a matrix of the wrong size, an uncalibrated all-zero matrix).
 CameraIntrinsics loadCameraInfoYaml(const std::string& path);
 
-/// Writes intrinsics in that format (no distortion, identity rectification).
+/// Writes intrinsics in that format (their distortion, identity rectification, P = K).
 std::string cameraInfoToYaml(const CameraIntrinsics& camera, const std::string& camera_name);
 
 /// Writes cameraInfoToYaml() to `path`. Throws std::runtime_error when it cannot.

@@ -69,6 +69,20 @@ std::string paramsToYaml(const DetectorParams& params)
   return os.str();
 }
 
+namespace
+{
+std::vector<double> matrixData(const YAML::Node& root, const char* key, std::size_t size)
+{
+  if (!root[key])
+    return {};
+  auto data = root[key]["data"].as<std::vector<double>>();
+  if (data.size() != size)
+    throw std::runtime_error(std::string(key) + ".data must have " + std::to_string(size) + " numbers, has " +
+                             std::to_string(data.size()));
+  return data;
+}
+}  // namespace
+
 CameraIntrinsics loadCameraInfoYaml(const std::string& path)
 {
   const YAML::Node root = loadFile(path);
@@ -77,13 +91,28 @@ CameraIntrinsics loadCameraInfoYaml(const std::string& path)
     CameraIntrinsics k;
     k.width = root["image_width"].as<int>();
     k.height = root["image_height"].as<int>();
-    const auto data = root["camera_matrix"]["data"].as<std::vector<double>>();
-    if (data.size() != 9)
-      throw std::runtime_error("camera_matrix.data must have 9 numbers, has " + std::to_string(data.size()));
-    k.fx = data[0];
-    k.cx = data[2];
-    k.fy = data[4];
-    k.cy = data[5];
+    const auto camera_matrix = matrixData(root, "camera_matrix", 9);
+    if (camera_matrix.empty())
+      throw std::runtime_error("camera_matrix is missing");
+    const std::string model = root["distortion_model"] ? root["distortion_model"].as<std::string>() : "plumb_bob";
+    std::vector<double> d;
+    if (root["distortion_coefficients"])
+      d = root["distortion_coefficients"]["data"].as<std::vector<double>>();
+    if (model == "plumb_bob" ? d.size() > 5 : model == "rational_polynomial" ? d.size() > 8 : true)
+      throw std::runtime_error("distortion_model '" + model + "' with " + std::to_string(d.size()) +
+                               " coefficients is not supported (plumb_bob: 5, rational_polynomial: 8)");
+    k.distortion = d;
+    // As image_geometry reads a camera_info: a raw image is K with D; one without distortion
+    // (rectified) is described by P, whose focal length may differ from K's.
+    const auto projection = matrixData(root, "projection_matrix", 12);
+    const auto& m = k.distorted() || projection.empty() ? camera_matrix : projection;
+    const std::size_t row = k.distorted() || projection.empty() ? 3 : 4;
+    k.fx = m[0];
+    k.cx = m[2];
+    k.fy = m[row + 1];
+    k.cy = m[row + 2];
+    if (!k.distorted())
+      k.distortion.clear();
     if (!k.valid())
       throw std::runtime_error("uncalibrated: fx, fy and the image size must be positive");
     return k;
@@ -108,8 +137,13 @@ std::string cameraInfoToYaml(const CameraIntrinsics& k, const std::string& camer
      << "camera_name: " << camera_name << "\n"
      << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, " << k.fy << ", " << k.cy
      << ", 0, 0, 1]\n"
-     << "distortion_model: plumb_bob\n"
-     << "distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [0, 0, 0, 0, 0]\n"
+     << "distortion_model: " << (k.distortion.size() > 5 ? "rational_polynomial" : "plumb_bob") << "\n";
+  std::vector<double> d = k.distortion;
+  d.resize(d.size() > 5 ? 8 : 5, 0.0);
+  os << "distortion_coefficients:\n  rows: 1\n  cols: " << d.size() << "\n  data: [";
+  for (std::size_t i = 0; i < d.size(); ++i)
+    os << (i ? ", " : "") << d[i];
+  os << "]\n"
      << "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
      << "projection_matrix:\n  rows: 3\n  cols: 4\n  data: [" << k.fx << ", 0, " << k.cx << ", 0, 0, " << k.fy << ", "
      << k.cy << ", 0, 0, 0, 1, 0]\n";

@@ -23,7 +23,8 @@ const char* const kUsage =
     "usage: spool_detect [--config FILE] [--camera-info FILE] [--mode mcht|cht] PATH...\n"
     "  PATH       an image (png, jpg, bmp) or a folder of images\n"
     "  --config   parameter YAML (default: built-in defaults = config/default.yaml)\n"
-    "  --camera-info  ROS camera-calibration YAML; without it the thesis camera is used\n"
+    "  --camera-info  ROS camera-calibration YAML: K and D for raw frames (plumb_bob,\n"
+    "             rational_polynomial), P when D is zero (rectified); default: the thesis camera\n"
     "  --mode     mcht (concentric constraint, default) or cht (plain CHT, for comparison)\n"
     "Prints one JSON object per image on stdout. Exit: 0 ok, 1 an image failed, 2 bad option/config.\n";
 
@@ -128,10 +129,19 @@ int run(int argc, char** argv)
           .add("detected", d.detected)
           .add("hole_detected", d.hole_detected)
           .add("distance", d.distance)
+          .add("range", d.range)
           .add("yaw", d.yaw, 5)
           .add("overlapped", d.overlapped)
           .add("aligned", d.aligned)
           .add("lateral_offset", d.lateral_offset, 5)
+          .addRaw("position", d.detected ? JsonObject()
+                                               .add("x", d.position.x, 5)
+                                               .add("y", d.position.y, 5)
+                                               .add("z", d.position.z, 5)
+                                               .str()
+                                         : "null")
+          .add("axis_angle", d.axis_angle, 5)
+          .add("axis_yaw", d.axis_yaw, 5)
           .addRaw("flange", circleJson(d.detected, d.flange))
           .addRaw("hole", circleJson(d.hole_detected, d.hole))
           .addRaw("lens", circleJson(d.lens_detected, d.lens))

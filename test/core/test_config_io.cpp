@@ -119,6 +119,55 @@ TEST(ConfigIo, CameraInfoRoundTrip)
   EXPECT_DOUBLE_EQ(back.cy, 239.0);
   EXPECT_EQ(back.width, 640);
   EXPECT_EQ(back.height, 480);
+  EXPECT_TRUE(back.distortion.empty());
+
+  k.distortion = {-0.21, 0.04, 0.001, -0.002, 0.0};
+  EXPECT_EQ(loadCameraInfoYaml(writeTemp("c270.yaml", spool_vision::cameraInfoToYaml(k, "c270"))).distortion,
+            k.distortion);
+  k.distortion = {-0.3, 0.1, 0.0, 0.0, 0.01, 0.02, -0.01, 0.003};
+  EXPECT_EQ(loadCameraInfoYaml(writeTemp("rational.yaml", spool_vision::cameraInfoToYaml(k, "c270"))).distortion,
+            k.distortion);
+}
+
+namespace
+{
+std::string calibration(const std::string& model, const std::string& d)
+{
+  return "image_width: 640\nimage_height: 480\n"
+         "camera_matrix: {rows: 3, cols: 3, data: [800, 0, 320, 0, 801, 240, 0, 0, 1]}\n"
+         "distortion_model: " +
+         model + "\ndistortion_coefficients: {rows: 1, cols: 5, data: [" + d +
+         "]}\n"
+         "projection_matrix: {rows: 3, cols: 4, data: [760, 0, 318, 0, 0, 770, 236, 0, 0, 0, 1, 0]}\n";
+}
+}  // namespace
+
+TEST(ConfigIo, CameraInfoIsKWithDistortionOrPWithout)
+{
+  // A raw camera: K and D (P describes the rectified image, not this one).
+  const auto raw = loadCameraInfoYaml(writeTemp("raw.yaml", calibration("plumb_bob", "-0.2, 0.05, 0, 0, 0")));
+  EXPECT_DOUBLE_EQ(raw.fx, 800.0);
+  EXPECT_DOUBLE_EQ(raw.fy, 801.0);
+  EXPECT_DOUBLE_EQ(raw.cx, 320.0);
+  EXPECT_DOUBLE_EQ(raw.cy, 240.0);
+  EXPECT_EQ(raw.distortion, (std::vector<double>{-0.2, 0.05, 0, 0, 0}));
+  // No distortion: a rectified image, described by P.
+  const auto rectified = loadCameraInfoYaml(writeTemp("rect.yaml", calibration("plumb_bob", "0, 0, 0, 0, 0")));
+  EXPECT_DOUBLE_EQ(rectified.fx, 760.0);
+  EXPECT_DOUBLE_EQ(rectified.fy, 770.0);
+  EXPECT_DOUBLE_EQ(rectified.cx, 318.0);
+  EXPECT_DOUBLE_EQ(rectified.cy, 236.0);
+  EXPECT_FALSE(rectified.distorted());
+  // A model the detector cannot undo is refused by name.
+  try
+  {
+    loadCameraInfoYaml(writeTemp("fisheye.yaml", calibration("equidistant", "0.1, 0.01, 0, 0")));
+    FAIL() << "equidistant accepted";
+  }
+  catch (const std::runtime_error& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("equidistant"), std::string::npos) << e.what();
+  }
 }
 
 TEST(ConfigIo, CameraInfoErrors)

@@ -31,6 +31,9 @@ struct Truth
   cv::Point3d flange;    ///< x, y, r in px at 640x480
   cv::Point3d hole;      ///< the bore's front rim
   double open_fraction;  ///< share of the bore that shows the wall behind
+  double depth;          ///< m, z of the bore's front centre (camera optical frame)
+  cv::Point2d offset;    ///< m, that centre's x, y relative to the puller axis
+  double face_yaw;       ///< rad, where the spool axis points (atan2(x, z) of the axis)
 };
 
 Truth truthOf(const std::string& name)
@@ -47,7 +50,13 @@ Truth truthOf(const std::string& name)
       const YAML::Node c = frame["target"][key];
       return cv::Point3d(c["x"].as<double>(), c["y"].as<double>(), c["r"].as<double>());
     };
-    return {circle("flange"), circle("hole"), frame["target"]["hole"]["open_fraction"].as<double>()};
+    const YAML::Node target = frame["target"];
+    return {circle("flange"),
+            circle("hole"),
+            target["hole"]["open_fraction"].as<double>(),
+            target["distance_m"].as<double>(),
+            {target["lateral_offset_m"][0].as<double>(), target["lateral_offset_m"][1].as<double>()},
+            target["face_yaw_rad"].as<double>()};
   }
   ADD_FAILURE() << name << " is not in truth.jsonl";
   return {};
@@ -141,6 +150,22 @@ TEST_P(HeldoutCase, TargetAndBoreFrontRimAt160x120)
 INSTANTIATE_TEST_SUITE_P(Cases, HeldoutCase,
                          ::testing::Values("pos_124", "pos_239", "pos_031", "pos_167", "pos_032", "pos_096",
                                            "pos_057"));
+
+// The spool in 3D (issue 10), from the flange rim as a 35 cm circle about the bore's front centre:
+// depth (thesis Eq. 3.2's meaning) within 0.5%, the offset from the puller axis within 3 mm and
+// the axis within 1 degree. pos_057's spool is turned 20 degrees: the flange's 12 mm edge shows
+// beside its rim and pulls the ellipse centre ~1.5 px, so its axis is only within 5 degrees.
+TEST_P(HeldoutCase, SpoolIn3DAt640x480)
+{
+  const Truth t = truthOf(GetParam());
+  const SpoolDetection d = detect(frameAt(GetParam(), 640), 640);
+  ASSERT_TRUE(d.hole_detected);
+  EXPECT_NEAR(d.distance, t.depth, 0.005 * t.depth);
+  EXPECT_NEAR(d.lateral_offset, t.offset.x, 0.003);
+  EXPECT_NEAR(d.position.y - 0.06, t.offset.y, 0.003);
+  const double axis_tol = std::string(GetParam()) == "pos_057" ? 5.0 : 1.0;
+  EXPECT_NEAR(d.axis_yaw, t.face_yaw, axis_tol * M_PI / 180.0);
+}
 
 // The case as handed: pos_031 resampled to 320x240 by the webcam model (not by us), which once
 // gave a confident wrong target at the frame edge.
