@@ -1,5 +1,5 @@
 // The lens model of a raw webcam frame: OpenCV's (which is ROS's plumb_bob and
-// rational_polynomial), used to undistort a frame before it is measured and to map measured
+// rational_polynomial), used to undistort the edges the detector measures and to map measured
 // points back into the frame a user sees.
 #pragma once
 
@@ -16,9 +16,9 @@ namespace spool_vision
 /// on every call. Returns `p` unchanged when the camera has no distortion.
 cv::Point2d distortPixel(const CameraIntrinsics& camera, const cv::Point2d& p);
 
-/// Fixed-point maps (cv::remap, CV_16SC2 + CV_16UC1) from the raw frame of `camera` to its
-/// undistorted image with the same K (cv::initUndistortRectifyMap). Throws
-/// std::invalid_argument when the camera is invalid.
-void undistortionMaps(const CameraIntrinsics& camera, cv::Mat& map1, cv::Mat& map2);
+/// For every pixel of `camera`'s raw frame, where it lies in the undistorted image with the same
+/// K (CV_32FC2, height x width, px; cv::undistortPoints). Throws std::invalid_argument when the
+/// camera is invalid.
+void undistortionTable(const CameraIntrinsics& camera, cv::Mat& table);
 
 }  // namespace spool_vision

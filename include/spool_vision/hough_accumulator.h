@@ -33,7 +33,23 @@ public:
   void computeGradients(const cv::Mat& gray8);
   void extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges);
 
+  /// Frames of `camera`'s size with lens distortion give their edges in the undistorted image
+  /// (the ideal pinhole image with the same K): each position through undistortionTable(), each
+  /// gradient direction through that table's local Jacobian J (a gradient maps by J^-T), and
+  /// extract()'s roi is read in undistorted pixels too. The frame itself is never resampled, which
+  /// keeps undistortion to the few thousand edges kept. A camera without distortion switches it
+  /// off. Throws std::invalid_argument on an invalid camera.
+  void setUndistortion(const CameraIntrinsics& camera);
+
 private:
+  /// The raw-frame rectangle whose edges can lie in the undistorted `roi`.
+  cv::Rect rawRoi(const cv::Rect& roi) const;
+  void undistort(std::vector<EdgePoint>& edges) const;
+  /// Keeps the strongest max_edges of `edges` (strengths_ alongside), in their order.
+  void keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges);
+
+  CameraIntrinsics lens_;
+  cv::Mat undistorted_;  ///< undistortionTable(lens_); empty: edges stay where the frame has them
   cv::Mat gx_, gy_, mag_;
   std::vector<int> strengths_;  ///< squared gradient magnitude of each extracted edge
   std::vector<int> selection_;  ///< scratch for the budget's nth_element

@@ -24,11 +24,6 @@ public:
     return params_;
   }
 
-  /// Frames of `camera`'s size are undistorted (to the ideal pinhole image with the same K)
-  /// right after grey conversion when the camera has lens distortion; a camera without
-  /// distortion switches that off. Throws std::invalid_argument on an invalid camera.
-  void setUndistortion(const CameraIntrinsics& camera);
-
   /// Runs every stage. `out` is CV_8UC1 of the input's size. Throws std::invalid_argument
   /// when the matrix type does not fit `format` or the image is empty.
   void process(const cv::Mat& image, PixelFormat format, cv::Mat& out);
@@ -49,8 +44,7 @@ private:
   cv::Mat rows_;
   std::vector<float> line_, acc_;
   cv::Mat structuring_element_;
-  cv::Mat undistort_map1_, undistort_map2_;  ///< empty: frames are used as they come
-  cv::Mat gray_, undistorted_, filtered_, binary_, morph_, blur_;
+  cv::Mat gray_, filtered_, binary_, morph_, blur_;
   cv::Mat labels_, stats_, centroids_;
 };
 

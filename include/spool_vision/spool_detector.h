@@ -38,10 +38,12 @@ public:
   }
 
   /// Processes one frame. Throws std::invalid_argument on an empty, too small or mistyped
-  /// image. Steady state (same size and format) does not allocate. A camera with lens
-  /// distortion has its frames undistorted first; the circle centres and the reference in the
-  /// result are then mapped back to where they appear in the frame given (their radii stay those
-  /// of the undistorted image), while the candidates and preprocessed() below stay undistorted.
+  /// image. Steady state (same size and format) does not allocate. With a camera that has lens
+  /// distortion the edges are undistorted (EdgeDetector::setUndistortion) and every circle is
+  /// measured in the undistorted image; the circle centres and the reference in the result are
+  /// then mapped back to where they appear in the frame given (radii stay those of the
+  /// undistorted image), while the candidates below stay undistorted and preprocessed() is the
+  /// frame's own geometry.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format);
 
   /// Intermediate results of the last frame, for overlays and debugging.

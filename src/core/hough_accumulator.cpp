@@ -8,6 +8,8 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
+#include "spool_vision/camera_model.h"
+
 namespace spool_vision
 {
 namespace
@@ -174,12 +176,73 @@ void EdgeDetector::computeGradients(const cv::Mat& gray8)
   }
 }
 
+void EdgeDetector::setUndistortion(const CameraIntrinsics& camera)
+{
+  lens_ = camera;
+  if (camera.distorted())
+    undistortionTable(camera, undistorted_);
+  else
+    undistorted_.release();
+}
+
+cv::Rect EdgeDetector::rawRoi(const cv::Rect& roi) const
+{
+  if (undistorted_.empty() || undistorted_.size() != mag_.size())
+    return roi;
+  if ((roi & cv::Rect(0, 0, mag_.cols, mag_.rows)) == cv::Rect(0, 0, mag_.cols, mag_.rows))
+    return roi;  // the whole frame (its undistorted image reaches beyond the rectangle)
+  // A lens bends the rectangle's sides: their corners and midpoints bound it.
+  double x0 = 1e300;
+  double y0 = 1e300;
+  double x1 = -1e300;
+  double y1 = -1e300;
+  for (const double fx : {0.0, 0.5, 1.0})
+    for (const double fy : {0.0, 0.5, 1.0})
+    {
+      const cv::Point2d p = distortPixel(lens_, {roi.x + fx * roi.width, roi.y + fy * roi.height});
+      x0 = std::min(x0, p.x);
+      y0 = std::min(y0, p.y);
+      x1 = std::max(x1, p.x);
+      y1 = std::max(y1, p.y);
+    }
+  constexpr int kPad = 2;  // px, the bulge of a bent side between its samples
+  return {cvFloor(x0) - kPad, cvFloor(y0) - kPad, cvCeil(x1 - x0) + 2 * kPad + 1, cvCeil(y1 - y0) + 2 * kPad + 1};
+}
+
+void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
+{
+  const int w = undistorted_.cols;
+  const int h = undistorted_.rows;
+  for (EdgePoint& e : edges)
+  {
+    const int x = std::clamp(cvRound(e.x), 0, w - 1);
+    const int y = std::clamp(cvRound(e.y), 0, h - 1);
+    const cv::Vec2f* row = undistorted_.ptr<cv::Vec2f>(y);
+    const int xl = std::max(x - 1, 0);
+    const int xr = std::min(x + 1, w - 1);
+    const int yu = std::max(y - 1, 0);
+    const int yd = std::min(y + 1, h - 1);
+    // J = d(undistorted) / d(raw), columns by central differences of the table.
+    const cv::Vec2f jx = (row[xr] - row[xl]) / static_cast<float>(xr - xl);
+    const cv::Vec2f jy = (undistorted_.ptr<cv::Vec2f>(yd)[x] - undistorted_.ptr<cv::Vec2f>(yu)[x]) /
+                         static_cast<float>(yd - yu);
+    const float ox = e.x - static_cast<float>(x);
+    const float oy = e.y - static_cast<float>(y);
+    const cv::Vec2f at = row[x] + jx * ox + jy * oy;
+    // Gradient by J^-T (up to the positive 1/det, removed by the normalisation).
+    const float gx = jy[1] * e.dx - jx[1] * e.dy;
+    const float gy = -jy[0] * e.dx + jx[0] * e.dy;
+    const float norm = std::sqrt(gx * gx + gy * gy);
+    e = {at[0], at[1], gx / norm, gy / norm};
+  }
+}
+
 void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges)
 {
   edges.clear();
   strengths_.clear();
   // The outermost rows and columns have no neighbour on one side for the suppression.
-  const cv::Rect area = roi & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
+  const cv::Rect area = rawRoi(roi) & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
   const int t2 = static_cast<int>(t * t);
   const size_t step = mag_.step1();
@@ -213,8 +276,14 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
       strengths_.push_back(c2);
     }
   }
-  if (edges.size() <= max_edges)
-    return;
+  if (edges.size() > max_edges)
+    keepStrongest(max_edges, edges);
+  if (!undistorted_.empty() && undistorted_.size() == mag_.size())
+    undistort(edges);
+}
+
+void EdgeDetector::keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges)
+{
   // Over budget: keep the strongest max_edges, in their row-major order (ties at the cut are
   // taken first come).
   selection_.assign(strengths_.begin(), strengths_.end());

@@ -7,8 +7,6 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "spool_vision/camera_model.h"
-
 namespace spool_vision
 {
 namespace
@@ -50,14 +48,6 @@ void Preprocessor::setParams(const PreprocessParams& params, double focal_length
     sum += kernel_[static_cast<size_t>(i + radius)] = static_cast<float>(std::exp(-0.5 * i * i / (sigma * sigma)));
   for (float& w : kernel_)
     w /= sum;
-}
-
-void Preprocessor::setUndistortion(const CameraIntrinsics& camera)
-{
-  if (camera.distorted())
-    undistortionMaps(camera, undistort_map1_, undistort_map2_);
-  else
-    undistort_map1_.release();
 }
 
 void Preprocessor::gaussian(const cv::Mat& gray, cv::Mat& out)
@@ -221,14 +211,7 @@ void Preprocessor::areaOpening(const cv::Mat& binary, cv::Mat& out)
 void Preprocessor::process(const cv::Mat& image, PixelFormat format, cv::Mat& out)
 {
   toGray(image, format, gray_);
-  if (!undistort_map1_.empty() && undistort_map1_.size() == gray_.size())
-  {
-    // Bilinear on the grey frame: the blur that follows hides its interpolation.
-    cv::remap(gray_, undistorted_, undistort_map1_, undistort_map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    filter(undistorted_, filtered_);
-  }
-  else
-    filter(gray_, filtered_);
+  filter(gray_, filtered_);
   if (params_.binarize == BinarizeType::kNone)
   {
     // Morphology and area opening are defined on binary images only.

@@ -52,7 +52,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
   geometry_.emplace(params_.geometry, camera);
   matcher_ = ConcentricMatcher(params_.matcher, params_.geometry, camera);
   preprocessor_.setParams(params_.preprocess, camera.fy);
-  preprocessor_.setUndistortion(camera);
+  edge_detector_.setUndistortion(camera);
   return *geometry_;
 }
 
@@ -359,7 +359,10 @@ std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch
       {
         const cv::Point2d at(w.x + (nx > 0 ? ix * w.width / nx : 0.5 * w.width),
                              w.y + (ny > 0 ? iy * w.height / ny : 0.5 * w.height));
-        const double contrast = discContrast(preprocessed_, at, r);
+        // The frame is not undistorted: look where the lens puts the disc, at its local scale.
+        const cv::Point2d seen = distortPixel(geometry_->camera(), at);
+        const cv::Point2d edge = distortPixel(geometry_->camera(), {at.x + r, at.y});
+        const double contrast = discContrast(preprocessed_, seen, std::hypot(edge.x - seen.x, edge.y - seen.y));
         if (contrast > best)
         {
           best = contrast;
