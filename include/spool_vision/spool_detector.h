@@ -65,6 +65,8 @@ public:
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
+  /// rim_: the edges of the result's flange rim (for SpoolGeometry::fitRimPose).
+  void gatherRim(const SpoolDetection& result);
   /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
   /// The most edges kept from a region of `size` (edge_budget).
@@ -105,6 +107,7 @@ private:
   cv::Mat preprocessed_;
   std::vector<EdgePoint> edges_;
   std::vector<EdgePoint> hole_edges_;
+  std::vector<cv::Point2f> rim_;
   std::vector<Circle> flanges_;
   std::vector<Circle> holes_;         ///< hole candidates of the target (or of the last search)
   std::vector<Circle> target_holes_;  ///< the best candidate's while the others are searched

@@ -90,10 +90,36 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   SpoolDetection result;
   selectTarget(geometry.reference(geometry.nominalDistance()), flange_search, pick(hp.hole_radius_min, hole_min),
                pick(hp.hole_radius_max, hole_max), result);
-  geometry.measure(result);
+  gatherRim(result);
+  geometry.measure(result, rim_);
   toFramePixels(geometry.camera(), result);
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+void SpoolDetector::gatherRim(const SpoolDetection& result)
+{
+  rim_.clear();
+  if (!result.hole_detected)
+    return;
+  // Edges within a few px of the flange's ellipse whose gradient points outwards (the face is
+  // darker than what lies around it; with flange_polarity any, either way).
+  const Circle& f = result.flange;
+  const double semi_x = f.r_horizontal > 0.0 ? f.r_horizontal : f.r;
+  const double semi_y = f.r_vertical > 0.0 ? f.r_vertical : f.r;
+  const double band = std::max(3.0, 0.02 * semi_y);
+  const bool either = params_.hough.flange_polarity != Polarity::kDark;
+  for (const EdgePoint& e : edges_)
+  {
+    const double vx = (e.x - f.x) / semi_x;
+    const double vy = (e.y - f.y) / semi_y;
+    const double rho = std::sqrt(vx * vx + vy * vy);
+    if (std::abs(rho - 1.0) * semi_y > band || rho == 0.0)
+      continue;
+    const double outward = (e.dx * vx + e.dy * vy) / rho;
+    if (either ? std::abs(outward) > 0.8 : outward > 0.8)
+      rim_.emplace_back(e.x, e.y);
+  }
 }
 
 void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result)

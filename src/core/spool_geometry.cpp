@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -96,6 +97,72 @@ bool SpoolGeometry::rimPose(const Circle& flange, const cv::Point2d& centre, cv:
   return true;
 }
 
+bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Point2d& centre, cv::Point3d& position,
+                               cv::Vec3d& axis) const
+{
+  const double radius = 0.5 * params_.flange_diameter;
+  const Eigen::Vector3d ray((centre.x - camera_.cx) / camera_.fx, (centre.y - camera_.cy) / camera_.fy, 1.0);
+  // Unknowns: depth along `ray` and the normal's slopes (n ~ (a, b, 1)).
+  Eigen::Vector3d p(position.z / ray.z(), axis[0] / axis[2], axis[1] / axis[2]);
+  // At most ~400 points: the fit has three unknowns, and its cost stays a fraction of the Hough's.
+  const std::size_t stride = std::max<std::size_t>(1, rim.size() / 400);
+  auto residual = [&](const Eigen::Vector3d& q, const cv::Point2f& u)
+  {
+    const Eigen::Vector3d c = q.x() * ray;
+    const Eigen::Vector3d n = Eigen::Vector3d(q.y(), q.z(), 1.0).normalized();
+    const Eigen::Vector3d r((u.x - camera_.cx) / camera_.fx, (u.y - camera_.cy) / camera_.fy, 1.0);
+    const double along = n.dot(r);
+    if (!(std::abs(along) > 1e-9))
+      return std::numeric_limits<double>::quiet_NaN();
+    const Eigen::Vector3d x = (n.dot(c) / along) * r;
+    return ((x - c).norm() - radius) * camera_.fy / c.z();
+  };
+  const double band = std::max(1.5, 0.01 * camera_.fy * radius / p.x());
+  constexpr int kIterations = 6;
+  constexpr double kStep = 1e-6;
+  for (int iteration = 0; iteration < kIterations; ++iteration)
+  {
+    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+    int used = 0;
+    for (std::size_t i = 0; i < rim.size(); i += stride)
+    {
+      const double e = residual(p, rim[i]);
+      // The first pass takes a wider band: the start (rimPose()) may be a few px off the rim.
+      if (!(std::abs(e) <= (iteration == 0 ? 3.0 : 1.0) * band))
+        continue;
+      Eigen::Vector3d j;
+      for (int k = 0; k < 3; ++k)
+      {
+        Eigen::Vector3d moved = p;
+        moved(k) += kStep * (k == 0 ? p.x() : 1.0);
+        j(k) = (residual(moved, rim[i]) - e) / (moved(k) - p(k));
+      }
+      if (!j.allFinite())
+        continue;
+      jtj += j * j.transpose();
+      jtr += j * e;
+      ++used;
+    }
+    constexpr int kMinPoints = 30;
+    if (used < kMinPoints)
+      return false;
+    const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
+    if (!step.allFinite())
+      return false;
+    p += step;
+    if (!(p.x() > 0.0))
+      return false;
+    if (std::abs(step.x()) < 1e-7 * p.x() && step.tail<2>().cwiseAbs().maxCoeff() < 1e-7)
+      break;
+  }
+  const Eigen::Vector3d c = p.x() * ray;
+  const Eigen::Vector3d n = Eigen::Vector3d(p.y(), p.z(), 1.0).normalized();
+  position = {c.x(), c.y(), c.z()};
+  axis = {n.x(), n.y(), n.z()};
+  return true;
+}
+
 void SpoolGeometry::pullerMiss(const cv::Point3d& position, const cv::Vec3d& axis, double& front, double& back) const
 {
   const cv::Point2d puller(params_.puller_offset_x, params_.puller_offset_y);
@@ -154,7 +221,7 @@ double SpoolGeometry::tolerance() const
   return (params_.hole_diameter - params_.puller_diameter) / 2.0;
 }
 
-void SpoolGeometry::measure(SpoolDetection& d) const
+void SpoolGeometry::measure(SpoolDetection& d, const std::vector<cv::Point2f>& rim) const
 {
   d.tolerance = tolerance();
   if (!d.detected)
@@ -167,6 +234,8 @@ void SpoolGeometry::measure(SpoolDetection& d) const
   const Circle& centre = d.hole_detected ? d.hole : d.flange;
   if (!d.hole_detected || !rimPose(d.flange, {centre.x, centre.y}, d.position, d.axis))
     d.position = backProject(centre.x, centre.y, depthFromDiameter(2.0 * d.flange.r_vertical));
+  else if (!rim.empty())
+    fitRimPose(rim, {centre.x, centre.y}, d.position, d.axis);
   d.distance = d.position.z;
   d.range = std::sqrt(d.position.dot(d.position));
   if (std::isfinite(d.axis[2]))

@@ -266,3 +266,46 @@ TEST(SpoolGeometry, WithoutAHoleThePositionIsTheFlangesAndTheAxisUnknown)
   EXPECT_TRUE(std::isnan(d.axis_angle));
   EXPECT_FALSE(d.aligned);
 }
+
+TEST(SpoolGeometry, FitRimPoseUsesWhateverArcShows)
+{
+  // 40% of a rim (the rest beyond the frame's right border), 0.2 px noise, outliers of a back
+  // flange's crescent 8 px inside: depth and axis from the arc alone, started off the truth.
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  const cv::Vec3d c(0.22, 0.06, 0.6);
+  const cv::Vec3d n = cv::normalize(cv::Vec3d(std::tan(-3.0 * kDeg), std::tan(1.0 * kDeg), 1.0));
+  const cv::Vec3d a = cv::normalize(cv::Vec3d(0, 1, 0).cross(n));
+  const cv::Vec3d b = n.cross(a);
+  cv::RNG rng(7);
+  std::vector<cv::Point2f> rim;
+  for (int i = 0; i < 2000; ++i)
+  {
+    const double phi = 2.0 * M_PI * i / 2000;
+    const cv::Vec3d p = c + 0.175 * (std::cos(phi) * a + std::sin(phi) * b);
+    const double u = camera.cx + camera.fx * p[0] / p[2];
+    const double v = camera.cy + camera.fy * p[1] / p[2];
+    if (u > 500.0)
+      continue;
+    const double inward = i % 10 == 0 ? 8.0 : 0.0;  // every tenth point: the crescent
+    const double du = u - (camera.cx + camera.fx * c[0] / c[2]);
+    const double dv = v - (camera.cy + camera.fy * c[1] / c[2]);
+    const double len = std::hypot(du, dv);
+    rim.emplace_back(static_cast<float>(u - inward * du / len + rng.gaussian(0.2)),
+                     static_cast<float>(v - inward * dv / len + rng.gaussian(0.2)));
+  }
+  ASSERT_GT(rim.size(), 400u);
+  const cv::Point2d centre(camera.cx + camera.fx * c[0] / c[2], camera.cy + camera.fy * c[1] / c[2]);
+  cv::Point3d position(0.0, 0.0, 0.606);  // 1% deep, facing the camera
+  cv::Vec3d axis(0.0, 0.0, 1.0);
+  ASSERT_TRUE(g.fitRimPose(rim, centre, position, axis));
+  EXPECT_NEAR(position.z, c[2], 0.001 * c[2]);
+  EXPECT_NEAR(position.x, c[0], 0.001);
+  EXPECT_NEAR(std::acos(axis.dot(n)) / kDeg, 0.0, 0.2);
+
+  // Too few points: refused, outputs untouched.
+  const std::vector<cv::Point2f> few(rim.begin(), rim.begin() + 20);
+  cv::Point3d untouched(1, 2, 3);
+  EXPECT_FALSE(g.fitRimPose(few, centre, untouched, axis));
+  EXPECT_EQ(untouched, cv::Point3d(1, 2, 3));
+}
