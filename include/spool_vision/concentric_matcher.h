@@ -60,6 +60,13 @@ public:
   /// (fit - principal point) * L r / (f R) further out.
   cv::Size2d silhouetteShift(const Circle& flange) const;
 
+  /// How far (px, left or right: the sign is not known from the ellipse alone) the spool's axis
+  /// shows from `flange`'s ellipse centre when its rim is narrower than tall: a spool turned by
+  /// psi, cos(psi) = r_horizontal / r_vertical, has its ellipse centre r_v^2 / f sin(psi)
+  /// cos(psi) off the projected centre (9 px for a 20 degree turn at 1 m and 640x480). 0 for a
+  /// round rim.
+  double axisShift(const Circle& flange) const;
+
   /// How much larger than `flange` the front flange can be: (Z + L) / Z = 1 + L r / (f R) when
   /// the fit is the back disc; 1 without a back flange.
   double backToFront(const Circle& flange) const;
@@ -84,8 +91,9 @@ public:
   /// centre lies within centreTolerance() and its radius fits the known ratio; in cht mode always.
   bool accepts(const Circle& flange, const Circle& hole) const;
 
-  /// The hole for `flange` among `holes`, if any passes: in mcht mode the one nearest the
-  /// flange centre, in cht mode the strongest (the thesis baseline has no pairing rule).
+  /// The hole for `flange` among `holes`, if any passes: in mcht mode the one with the least
+  /// distance (px) from where the axis shows (the flange centre moved by axisShift() either way)
+  /// plus radius error (px), in cht mode the strongest (the thesis baseline has no pairing rule).
   std::optional<Circle> matchHole(const Circle& flange, const std::vector<Circle>& holes) const;
 
   /// Indices of `flanges`, nearest `reference` first, the distance divided by the rim score:

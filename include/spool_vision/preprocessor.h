@@ -1,6 +1,7 @@
 // Stage 1: grayscale, noise filter, optional binarization, morphology and area opening.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -40,9 +41,10 @@ private:
   void gaussian(const cv::Mat& gray, cv::Mat& out);
 
   PreprocessParams params_;
-  std::vector<float> kernel_;
+  std::vector<std::uint16_t> kernel_;  ///< Gaussian taps, 8.8 fixed point, summing to 256
   cv::Mat rows_;
-  std::vector<float> line_, acc_;
+  std::vector<std::uint16_t> line_;
+  std::vector<std::uint32_t> acc_;
   cv::Mat structuring_element_;
   cv::Mat gray_, filtered_, binary_, morph_, blur_;
   cv::Mat labels_, stats_, centroids_;

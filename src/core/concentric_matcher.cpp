@@ -24,6 +24,16 @@ cv::Size2d ConcentricMatcher::centreTolerance(const Circle& flange) const
           tolerance_px_ + drift * std::tan(params_.max_view_pitch)};
 }
 
+double ConcentricMatcher::axisShift(const Circle& flange) const
+{
+  if (!(flange.r_horizontal > 0.0) || flange.r_horizontal >= flange.r_vertical)
+    return 0.0;
+  // A rim turned by psi about the vertical: cos(psi) = r_h / r_v, and its ellipse centre moves
+  // f (R/Z)^2 sin(psi) cos(psi) = r_v^2 / f sin(psi) cos(psi) off the axis (SpoolGeometry::rimPose).
+  const double c = flange.r_horizontal / flange.r_vertical;
+  return flange.r_vertical * flange.r_vertical / focal_length_ * std::sqrt(1.0 - c * c) * c;
+}
+
 cv::Size2d ConcentricMatcher::silhouetteShift(const Circle& flange) const
 {
   const double depth_ratio = backToFront(flange) - 1.0;
@@ -91,9 +101,15 @@ std::optional<Circle> ConcentricMatcher::matchHole(const Circle& flange, const s
   {
     if (!accepts(flange, hole))
       continue;
-    // MCHT trusts the concentric geometry; plain CHT (the thesis baseline) takes the strongest.
-    const double cost =
-        params_.mode == MatchMode::kMcht ? std::hypot(hole.x - flange.x, hole.y - flange.y) : -hole.score;
+    // MCHT trusts the concentric geometry: the hole nearest where the spool's axis should
+    // show, of the size the flange gives it (a rib around the bore is concentric too, but larger);
+    // plain CHT (the thesis baseline) takes the strongest.
+    const double shift = axisShift(flange);
+    const double cost = params_.mode == MatchMode::kMcht
+                            ? std::min(std::hypot(hole.x - flange.x - shift, hole.y - flange.y),
+                                       std::hypot(hole.x - flange.x + shift, hole.y - flange.y)) +
+                                  std::abs(hole.r - holeRadius(flange))
+                            : -hole.score;
     if (cost < best_cost)
     {
       best_cost = cost;

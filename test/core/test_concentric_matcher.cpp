@@ -155,3 +155,27 @@ TEST(ConcentricMatcher, ARimAboutTheHoleMustExplainTheFitThatLedToIt)
   EXPECT_FALSE(m.explainsFit(front, circle(between.x, between.y, 1.2 * 150)));
   EXPECT_FALSE(m.explainsFit(front, circle(back.x, back.y, 0.8 * back.r)));
 }
+
+TEST(ConcentricMatcher, ATurnedSpoolsHoleIsLookedForWhereItsAxisShows)
+{
+  // A rim turned 20 degrees at 1 m (640x480): 133 x 142 px, its ellipse centre 9 px beside the
+  // axis. A larger concentric ring (a rib) sits on the ellipse centre; the bore of the right size
+  // where the axis shows wins. A round rim keeps the nearest rule.
+  MatcherParams p = params(MatchMode::kMcht, 4.0, kVga);
+  p.max_view_angle = 0.45;
+  p.hole_ratio_tolerance = 0.4;
+  const ConcentricMatcher matcher(p, kSpool, kVga);
+  Circle flange = circle(380.0, 250.0, 137.5, 1.0);
+  flange.r_vertical = 142.0;
+  flange.r_horizontal = 142.0 * std::cos(20.0 * M_PI / 180.0);
+  const double shift = matcher.axisShift(flange);
+  EXPECT_NEAR(shift, 142.0 * 142.0 / 800.0 * std::sin(20.0 * M_PI / 180.0) * std::cos(20.0 * M_PI / 180.0), 1e-9);
+  const double bore = matcher.holeRadius(flange);
+  const Circle rib = circle(380.5, 250.0, 1.35 * bore);
+  const Circle hole = circle(380.0 - shift, 250.2, bore);
+  ASSERT_TRUE(matcher.accepts(flange, rib));
+  ASSERT_TRUE(matcher.accepts(flange, hole));
+  EXPECT_NEAR(matcher.matchHole(flange, {rib, hole})->x, hole.x, 1e-9);
+  flange.r_horizontal = flange.r_vertical;
+  EXPECT_EQ(matcher.axisShift(flange), 0.0);
+}

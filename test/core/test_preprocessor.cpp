@@ -188,3 +188,31 @@ TEST(Preprocessor, ThesisChainProducesABinaryImage)
   ASSERT_EQ(out.type(), CV_8UC1);
   EXPECT_EQ(cv::countNonZero((out != 0) & (out != 255)), 0);
 }
+
+TEST(Preprocessor, GaussianMatchesOpenCvsWithinTwoGreyLevels)
+{
+  // The fixed-point blur against cv::GaussianBlur (replicated borders) on a smooth random image.
+  cv::Mat in(120, 160, CV_8U);
+  cv::randu(in, 0, 256);
+  cv::GaussianBlur(in, in, cv::Size(0, 0), 2.0);
+  for (const double sigma_px : {1.5, 2.0})
+  {
+    PreprocessParams p;
+    p.filter = FilterType::kGaussian;
+    p.filter_sigma = sigma_px / kFocal;
+    Preprocessor pre(p, kFocal);
+    cv::Mat ours;
+    pre.filter(in, ours);
+    cv::Mat reference;
+    cv::GaussianBlur(in, reference, cv::Size(0, 0), sigma_px, 0.0, cv::BORDER_REPLICATE);
+    double worst = 0.0;
+    cv::Mat diff;
+    cv::absdiff(ours, reference, diff);
+    cv::minMaxLoc(diff, nullptr, &worst);
+    EXPECT_LE(worst, 2.0) << sigma_px;
+    // A flat image stays flat: the taps sum to one exactly.
+    cv::Mat flat(40, 40, CV_8U, cv::Scalar(201));
+    pre.filter(flat, ours);
+    EXPECT_EQ(cv::countNonZero(ours != 201), 0) << sigma_px;
+  }
+}
