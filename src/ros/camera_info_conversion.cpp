@@ -92,8 +92,8 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
   {
     std::string described = "camera_info describes " + sizeText(width, height) + " images";
     if (width != static_cast<int>(info.width) || height != static_cast<int>(info.height))
-      described += " (" + sizeText(static_cast<int>(info.width), static_cast<int>(info.height)) +
-                   " with its ROI and binning)";
+      described +=
+          " (" + sizeText(static_cast<int>(info.width), static_cast<int>(info.height)) + " with its ROI and binning)";
     const double sx = static_cast<double>(image_width) / width;
     const double sy = static_cast<double>(image_height) / height;
     if (width <= 0 || height <= 0 || std::abs(sx - sy) > kAspectTolerance * std::max(sx, sy))
@@ -106,9 +106,9 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
     camera.fy *= sy;
     camera.cy = (camera.cy + 0.5) * sy - 0.5;
     result.scaled = described + " but the images are " + sizeText(image_width, image_height) +
-                    "; scaled the calibration by " + number(sx) + " x " + number(sy) +
-                    " (fx " + number(camera.fx) + ", fy " + number(camera.fy) + " px). Calibrate at " +
-                    sizeText(image_width, image_height) + " for the best accuracy";
+                    "; scaled the calibration by " + number(sx) + " x " + number(sy) + " (fx " + number(camera.fx) +
+                    ", fy " + number(camera.fy) + " px). Calibrate at " + sizeText(image_width, image_height) +
+                    " for the best accuracy";
   }
   result.camera = camera;
   return result;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -90,7 +91,7 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {"image_transport", "queue_size",  "min_rate",   "max_rate",
+  static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
                                              "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame"};
   return keys;
 }
@@ -161,8 +162,9 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
           { imageCallback(msg, info); },
           ros::VoidPtr(), hints);
       inputs = camera_sub_.getTopic() + " (" + camera_sub_.getTransport() + ") with " + camera_sub_.getInfoTopic();
-      camera_info_check_timer_ = nh_.createWallTimer(ros::WallDuration(kCameraInfoCheckPeriod),
-                                                     [this](const ros::WallTimerEvent&) { checkCameraInfoPublished(); });
+      camera_info_check_timer_ =
+          nh_.createWallTimer(ros::WallDuration(kCameraInfoCheckPeriod),
+                              [this](const ros::WallTimerEvent&) { checkCameraInfoPublished(); });
     }
     else
     {
@@ -212,8 +214,7 @@ void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t
   }
 }
 
-void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg,
-                                     const sensor_msgs::CameraInfoConstPtr& info)
+void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
 {
   const ros::WallTime start = ros::WallTime::now();
   ++frames_since_check_;
@@ -255,8 +256,7 @@ bool SpoolDetectorRos::shouldLogError(const std::string& encoding, const std::st
   return true;
 }
 
-void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg,
-                                    const sensor_msgs::CameraInfoConstPtr& info)
+void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
 {
   checkBuffer(*msg);
   cv_bridge::CvImageConstPtr frame;
@@ -329,7 +329,7 @@ void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info,
     if (info_camera_)
       detector_.clearCamera();
     info_camera_.reset();
-    camera_problem_ = conversion.problem + " (" + camera_sub_.getInfoTopic() + ")";
+    camera_problem_ = camera_sub_.getInfoTopic() + ": " + conversion.problem;
     camera_refused_ = conversion.refused;
     return;
   }
@@ -361,9 +361,10 @@ void SpoolDetectorRos::publishSpool3d(const SpoolDetection& detection, const std
   {
     // TF needs a parent frame; the pose and marker carry the same empty frame_id regardless.
     if (!frame_id_missing_reported_)
-      ROS_WARN("spool_detector: the images have no frame_id, so no TF frame %s can be published; set the camera "
-               "driver's frame_id (e.g. camera_optical_frame)",
-               spool_frame_.c_str());
+      ROS_WARN(
+          "spool_detector: the images have no frame_id, so no TF frame %s can be published; set the camera "
+          "driver's frame_id (e.g. camera_optical_frame)",
+          spool_frame_.c_str());
     frame_id_missing_reported_ = true;
     return;
   }
@@ -389,9 +390,10 @@ void SpoolDetectorRos::reportCameraSource(const sensor_msgs::Image& msg)
   }
   if (camera_problem_ == reported_problem_)
     return;
-  const double focal = detector_.params().geometry.fallback_focal_length * msg.height / 120.0;
-  const std::string fallback = camera_problem_ + "; falling back to the thesis camera (f = " + std::to_string(focal) +
-                               " px for " + std::to_string(msg.width) + "x" + std::to_string(msg.height) +
+  char camera[96];
+  std::snprintf(camera, sizeof(camera), "f = %.1f px for %ux%u",
+                detector_.params().geometry.fallback_focal_length * msg.height / 120.0, msg.width, msg.height);
+  const std::string fallback = camera_problem_ + "; falling back to the thesis camera (" + camera +
                                ", principal point at the image centre). Distances and angles are only as good as "
                                "that guess: calibrate the camera.";
   if (camera_refused_)
@@ -413,10 +415,11 @@ void SpoolDetectorRos::checkCameraInfoPublished()
   const std::string info_topic = camera_sub_.getInfoTopic();
   if (std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) { return t.name == info_topic; }))
     return;
-  ROS_WARN("spool_detector: %s is published but %s is not, and images are processed only with the camera_info of "
-           "their stamp: nothing is measured. Publish the camera's camera_info, or set ~use_camera_info false to "
-           "measure images alone with the thesis camera",
-           camera_sub_.getTopic().c_str(), info_topic.c_str());
+  ROS_WARN(
+      "spool_detector: %s is published but %s is not, and images are processed only with the camera_info of "
+      "their stamp: nothing is measured. Publish the camera's camera_info, or set ~use_camera_info false to "
+      "measure images alone with the thesis camera",
+      camera_sub_.getTopic().c_str(), info_topic.c_str());
   missing_info_reported_ = true;
 }
 

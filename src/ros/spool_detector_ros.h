@@ -83,7 +83,7 @@ private:
   cv::Size last_image_size_;
   std::optional<CameraIntrinsics> info_camera_;
   std::string camera_problem_ = "no camera_info received yet";
-  bool camera_refused_ = false;  ///< camera_problem_ is a refused calibration (an error)
+  bool camera_refused_ = false;   ///< camera_problem_ is a refused calibration (an error)
   std::string reported_problem_;  ///< the fallback reason last logged; empty while calibrated
   std::string reported_scaling_;
   ros::WallTimer camera_info_check_timer_;

@@ -154,8 +154,8 @@ TEST(PoseConversion, SpoolStraightAheadHasTheCameraOrientation)
 
 TEST(PoseConversion, OrientationZIsTheAxisAndXStaysLevel)
 {
-  for (const cv::Vec3d& raw : {cv::Vec3d(0.3, 0.0, 1.0), cv::Vec3d(-0.5, 0.1, 0.8), cv::Vec3d(0.0, -0.2, 1.0),
-                               cv::Vec3d(-0.9, 0.05, 0.1)})
+  for (const cv::Vec3d& raw :
+       {cv::Vec3d(0.3, 0.0, 1.0), cv::Vec3d(-0.5, 0.1, 0.8), cv::Vec3d(0.0, -0.2, 1.0), cv::Vec3d(-0.9, 0.05, 0.1)})
   {
     const cv::Vec3d axis = cv::normalize(raw);
     const auto pose = spoolPose3d(detectedAt(cv::Point3d(0.0, 0.06, 0.7), axis));
