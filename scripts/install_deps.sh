@@ -8,11 +8,13 @@ PACKAGES=(
   build-essential cmake pkg-config
   ros-base-dev catkin ros-message-generation ros-message-runtime rosbash
   libcv-bridge-dev libimage-transport-dev libsensor-msgs-dev libcamera-info-manager-dev
+  libimage-geometry-dev libtf2-ros-dev libgeometry-msgs-dev libvisualization-msgs-dev
   libdiagnostic-updater-dev libdynamic-reconfigure-config-init-mutex-dev
   libnodeletlib-dev pluginlib-dev librostest-dev libstd-msgs-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-sensor-msgs
   python3-dynamic-reconfigure python3-cv-bridge python3-numpy
   python3-opencv python3-yaml python3-std-srvs python3-rosgraph-msgs ros-image-view
+  python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools rviz
   libnodeletlib-tools
   libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev libgmock-dev libbenchmark-dev
 )

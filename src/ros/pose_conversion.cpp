@@ -1,5 +1,6 @@
 #include "pose_conversion.h"
 
+#include <cmath>
 #include <limits>
 
 namespace spool_vision
@@ -7,29 +8,46 @@ namespace spool_vision
 namespace
 {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+bool finite(const cv::Vec3d& v)
+{
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
 }
+
+}  // namespace
 
 SpoolPose toSpoolPose(const SpoolDetection& detection, const std_msgs::Header& header)
 {
+  const bool detected = detection.detected;
   SpoolPose pose;
   pose.header = header;
-  pose.detected = detection.detected;
-  pose.hole_detected = detection.detected && detection.hole_detected;
+  pose.detected = detected;
+  pose.hole_detected = detected && detection.hole_detected;
   pose.overlapped = detection.overlapped;
   pose.aligned = detection.aligned;
-  pose.distance = detection.detected ? detection.distance : kNaN;
-  pose.yaw = detection.detected ? detection.yaw : kNaN;
-  pose.lateral_offset = detection.detected ? detection.lateral_offset : kNaN;
+  pose.distance = detected ? detection.distance : kNaN;
+  pose.range = detected ? detection.range : kNaN;
+  pose.yaw = detected ? detection.yaw : kNaN;
+  pose.lateral_offset = detected ? detection.lateral_offset : kNaN;
   pose.tolerance = detection.tolerance;
-  pose.flange_x = detection.detected ? detection.flange.x : kNaN;
-  pose.flange_y = detection.detected ? detection.flange.y : kNaN;
-  pose.flange_radius = detection.detected ? detection.flange.r : kNaN;
+  pose.position.x = detected ? detection.position.x : kNaN;
+  pose.position.y = detected ? detection.position.y : kNaN;
+  pose.position.z = detected ? detection.position.z : kNaN;
+  pose.axis.x = detected ? detection.axis[0] : kNaN;
+  pose.axis.y = detected ? detection.axis[1] : kNaN;
+  pose.axis.z = detected ? detection.axis[2] : kNaN;
+  pose.axis_angle = detected ? detection.axis_angle : kNaN;
+  pose.axis_yaw = detected ? detection.axis_yaw : kNaN;
+  pose.bore_see_through = pose.hole_detected && detection.lens_detected;
+  pose.flange_x = detected ? detection.flange.x : kNaN;
+  pose.flange_y = detected ? detection.flange.y : kNaN;
+  pose.flange_radius = detected ? detection.flange.r : kNaN;
   pose.hole_x = pose.hole_detected ? detection.hole.x : kNaN;
   pose.hole_y = pose.hole_detected ? detection.hole.y : kNaN;
   pose.hole_radius = pose.hole_detected ? detection.hole.r : kNaN;
   pose.reference_x = detection.reference.x;
   pose.reference_y = detection.reference.y;
-  pose.confidence = detection.detected ? detection.confidence : 0.0;
+  pose.confidence = detected ? detection.confidence : 0.0;
   return pose;
 }
 
@@ -39,6 +57,99 @@ SpoolPose undefinedSpoolPose(const std_msgs::Header& header, double tolerance)
   nothing.tolerance = tolerance;
   nothing.reference = cv::Point2d(kNaN, kNaN);
   return toSpoolPose(nothing, header);
+}
+
+std::optional<geometry_msgs::Pose> spoolPose3d(const SpoolDetection& detection)
+{
+  const cv::Vec3d position(detection.position.x, detection.position.y, detection.position.z);
+  if (!detection.detected || !finite(position) || !finite(detection.axis) || cv::norm(detection.axis) == 0.0)
+    return std::nullopt;
+  const cv::Vec3d z = cv::normalize(detection.axis);
+  // x level: perpendicular to z and to the camera's y (down). An axis along y (a spool seen from
+  // straight above or below, which the detector does not report) keeps the camera's x.
+  cv::Vec3d x(z[2], 0.0, -z[0]);
+  x = cv::norm(x) > 1e-9 ? cv::normalize(x) : cv::Vec3d(1.0, 0.0, 0.0);
+  const cv::Vec3d y = z.cross(x);
+
+  // Rotation matrix columns x, y, z -> quaternion (Shepperd's method, the largest term first
+  // for accuracy).
+  const double m00 = x[0], m01 = y[0], m02 = z[0];
+  const double m10 = x[1], m11 = y[1], m12 = z[1];
+  const double m20 = x[2], m21 = y[2], m22 = z[2];
+  geometry_msgs::Pose pose;
+  auto& q = pose.orientation;
+  const double trace = m00 + m11 + m22;
+  if (trace > 0.0)
+  {
+    const double s = 2.0 * std::sqrt(1.0 + trace);
+    q.w = 0.25 * s;
+    q.x = (m21 - m12) / s;
+    q.y = (m02 - m20) / s;
+    q.z = (m10 - m01) / s;
+  }
+  else if (m00 > m11 && m00 > m22)
+  {
+    const double s = 2.0 * std::sqrt(1.0 + m00 - m11 - m22);
+    q.w = (m21 - m12) / s;
+    q.x = 0.25 * s;
+    q.y = (m01 + m10) / s;
+    q.z = (m02 + m20) / s;
+  }
+  else if (m11 > m22)
+  {
+    const double s = 2.0 * std::sqrt(1.0 + m11 - m00 - m22);
+    q.w = (m02 - m20) / s;
+    q.x = (m01 + m10) / s;
+    q.y = 0.25 * s;
+    q.z = (m12 + m21) / s;
+  }
+  else
+  {
+    const double s = 2.0 * std::sqrt(1.0 + m22 - m00 - m11);
+    q.w = (m10 - m01) / s;
+    q.x = (m02 + m20) / s;
+    q.y = (m12 + m21) / s;
+    q.z = 0.25 * s;
+  }
+  pose.position.x = position[0];
+  pose.position.y = position[1];
+  pose.position.z = position[2];
+  return pose;
+}
+
+visualization_msgs::Marker spoolMarker(const std_msgs::Header& header, const std::optional<geometry_msgs::Pose>& pose,
+                                       double flange_diameter, double hub_length)
+{
+  visualization_msgs::Marker marker;
+  marker.header = header;
+  marker.ns = "spool";
+  marker.id = 0;
+  if (!pose)
+  {
+    marker.action = visualization_msgs::Marker::DELETE;
+    marker.pose.orientation.w = 1.0;
+    return marker;
+  }
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.type = visualization_msgs::Marker::CYLINDER;
+  // RViz centres a cylinder on its pose with its height along z: move it half a hub into the
+  // spool so that its front face lies on the bore's front centre.
+  marker.pose = *pose;
+  const auto& q = pose->orientation;
+  const double zx = 2.0 * (q.x * q.z + q.w * q.y);
+  const double zy = 2.0 * (q.y * q.z - q.w * q.x);
+  const double zz = 1.0 - 2.0 * (q.x * q.x + q.y * q.y);
+  marker.pose.position.x += 0.5 * hub_length * zx;
+  marker.pose.position.y += 0.5 * hub_length * zy;
+  marker.pose.position.z += 0.5 * hub_length * zz;
+  marker.scale.x = marker.scale.y = flange_diameter;
+  marker.scale.z = hub_length;
+  // Copper winding between black flanges: copper, slightly see-through so the image shows.
+  marker.color.r = 0.72f;
+  marker.color.g = 0.45f;
+  marker.color.b = 0.2f;
+  marker.color.a = 0.8f;
+  return marker;
 }
 
 }  // namespace spool_vision

@@ -1,7 +1,12 @@
-// SpoolDetection (ROS-free core) -> spool_vision/SpoolPose (REP 103 units, NaN when undefined).
+// SpoolDetection (ROS-free core) -> spool_vision/SpoolPose, geometry_msgs/PoseStamped and an RViz
+// marker (REP 103 units, NaN when undefined).
 #pragma once
 
+#include <optional>
+
+#include <geometry_msgs/Pose.h>
 #include <std_msgs/Header.h>
+#include <visualization_msgs/Marker.h>
 
 #include "spool_vision/SpoolPose.h"
 #include "spool_vision/types.h"
@@ -14,5 +19,18 @@ SpoolPose toSpoolPose(const SpoolDetection& detection, const std_msgs::Header& h
 /// The message for a frame that could not be processed: nothing detected, every number NaN
 /// except the tolerance, which does not depend on the frame.
 SpoolPose undefinedSpoolPose(const std_msgs::Header& header, double tolerance);
+
+/// The spool as a pose in the camera optical frame: origin at the bore's front centre, z along
+/// the spool axis into the spool, x level (in the camera's x-z plane, towards the camera's right
+/// when the spool faces the camera) and y = z cross x (down when level). Empty when nothing was
+/// detected or the position or axis is not finite (not measured).
+std::optional<geometry_msgs::Pose> spoolPose3d(const SpoolDetection& detection);
+
+/// The spool for RViz: a CYLINDER of the flange's diameter and the hub's length whose front face
+/// is centred on the bore's front centre and which extends along the axis into the spool
+/// (namespace "spool", id 0). Without a pose: a DELETE of that marker, so that RViz never shows a
+/// spool that is no longer seen.
+visualization_msgs::Marker spoolMarker(const std_msgs::Header& header, const std::optional<geometry_msgs::Pose>& pose,
+                                       double flange_diameter, double hub_length);
 
 }  // namespace spool_vision

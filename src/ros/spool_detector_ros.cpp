@@ -2,15 +2,21 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
 #include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <geometry_msgs/TransformStamped.h>
 #include <image_transport/exception.h>
+#include <ros/master.h>
 #include <sensor_msgs/image_encodings.h>
+#include <visualization_msgs/Marker.h>
 #include <boost/any.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "camera_info_conversion.h"
 #include "pose_conversion.h"
 #include "ros_params.h"
 #include "spool_vision/overlay.h"
@@ -24,6 +30,8 @@ namespace enc = sensor_msgs::image_encodings;
 // Bad input can arrive at frame rate; one line per period is enough to see it in the log.
 constexpr double kErrorThrottlePeriod = 5.0;
 constexpr std::size_t kMaxErrorKinds = 64;
+// How long without a processed frame before checking whether camera_info is published at all.
+constexpr double kCameraInfoCheckPeriod = 5.0;
 
 std::optional<PixelFormat> pixelFormatOf(const std::string& encoding)
 {
@@ -83,8 +91,8 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {"image_transport", "queue_size", "min_rate", "max_rate",
-                                             "diagnostic_period"};
+  static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
+                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame"};
   return keys;
 }
 
@@ -103,6 +111,11 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   max_rate_ = readRosOption<double>(pnh_, "max_rate", 60.0, "a number in Hz");
   if (!(min_rate_ > 0.0 && max_rate_ >= min_rate_))
     throw ParamError("max_rate", "min_rate and max_rate must satisfy 0 < min_rate <= max_rate");
+  const bool use_camera_info = readRosOption<bool>(pnh_, "use_camera_info", true, "true or false");
+  const bool publish_tf = readRosOption<bool>(pnh_, "publish_tf", false, "true or false");
+  spool_frame_ = readRosOption<std::string>(pnh_, "spool_frame", "spool", "a TF frame name");
+  if (spool_frame_.empty())
+    throw ParamError("spool_frame", "must not be empty; allowed: a TF frame name such as spool");
 
   // The dynamic_reconfigure server starts from the parameter server: give it the values in
   // force (YAML on top of the defaults) so that it neither resets nor clamps anything.
@@ -129,20 +142,46 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
                                            [this](const ros::WallTimerEvent&) { updater_.force_update(); });
 
   pose_pub_ = nh_.advertise<SpoolPose>("spool_pose", 10);
+  pose_stamped_pub_ = pnh_.advertise<geometry_msgs::PoseStamped>("pose", 10);
+  marker_pub_ = pnh_.advertise<visualization_msgs::Marker>("marker", 10);
   debug_pub_ = private_it_.advertise("debug_image", 1);
-  camera_info_sub_ = nh_.subscribe("camera_info", queue_size, &SpoolDetectorRos::cameraInfoCallback, this);
+  if (publish_tf)
+    tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  std::string inputs;
   try
   {
     // Hints read ~image_transport (already checked above) rather than a global parameter.
-    image_sub_ = it_.subscribe("image", queue_size, &SpoolDetectorRos::imageCallback, this,
-                               image_transport::TransportHints(transport, ros::TransportHints(), pnh_));
+    const image_transport::TransportHints hints(transport, ros::TransportHints(), pnh_);
+    if (use_camera_info)
+    {
+      // Each image is processed with the camera_info of its own stamp (camera_info beside the
+      // image topic, as image_transport names it); images without one are not delivered.
+      camera_sub_ = it_.subscribeCamera(
+          "image", queue_size,
+          [this](const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
+          { imageCallback(msg, info); },
+          ros::VoidPtr(), hints);
+      inputs = camera_sub_.getTopic() + " (" + camera_sub_.getTransport() + ") with " + camera_sub_.getInfoTopic();
+      camera_info_check_timer_ =
+          nh_.createWallTimer(ros::WallDuration(kCameraInfoCheckPeriod),
+                              [this](const ros::WallTimerEvent&) { checkCameraInfoPublished(); });
+    }
+    else
+    {
+      camera_problem_ = "use_camera_info is false";
+      image_sub_ = it_.subscribe(
+          "image", queue_size, [this](const sensor_msgs::ImageConstPtr& msg) { imageCallback(msg, nullptr); },
+          ros::VoidPtr(), hints);
+      inputs = image_sub_.getTopic() + " (" + image_sub_.getTransport() + "), no camera_info";
+    }
   }
   catch (const image_transport::TransportLoadException& e)
   {
     throw ParamError("image_transport", "transport '" + transport + "' cannot be loaded (" + e.what() + ")");
   }
-  ROS_INFO("spool_detector: listening on %s (%s) and %s, publishing %s", image_sub_.getTopic().c_str(),
-           image_sub_.getTransport().c_str(), camera_info_sub_.getTopic().c_str(), pose_pub_.getTopic().c_str());
+  const std::string tf = publish_tf ? " and TF frame " + spool_frame_ : "";
+  ROS_INFO("spool_detector: listening on %s, publishing %s, %s and %s%s", inputs.c_str(), pose_pub_.getTopic().c_str(),
+           pose_stamped_pub_.getTopic().c_str(), marker_pub_.getTopic().c_str(), tf.c_str());
 }
 
 void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t /*level*/)
@@ -175,44 +214,13 @@ void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t
   }
 }
 
-void SpoolDetectorRos::cameraInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg)
-{
-  const auto& k = msg->K;
-  if (k[0] > 0.0 && k[4] > 0.0 && msg->width > 0 && msg->height > 0)
-  {
-    // K, not P: the detector sees the image as published (image_raw from a webcam); subscribe
-    // to image_rect with its own camera_info to use rectified frames.
-    CameraIntrinsics camera;
-    camera.fx = k[0];
-    camera.fy = k[4];
-    camera.cx = k[2];
-    camera.cy = k[5];
-    camera.width = static_cast<int>(msg->width);
-    camera.height = static_cast<int>(msg->height);
-    if (!info_camera_ || *info_camera_ != camera)
-    {
-      detector_.setCamera(camera);
-      info_camera_ = camera;
-      camera_problem_.clear();
-    }
-    return;
-  }
-  if (info_camera_)
-  {
-    detector_.clearCamera();
-    info_camera_.reset();
-  }
-  camera_problem_ = "camera_info on " + camera_info_sub_.getTopic() +
-                    " is uncalibrated (K[0] = " + std::to_string(k[0]) + ", K[4] = " + std::to_string(k[4]) + ", " +
-                    std::to_string(msg->width) + "x" + std::to_string(msg->height) + ")";
-}
-
-void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg)
+void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
 {
   const ros::WallTime start = ros::WallTime::now();
+  ++frames_since_check_;
   try
   {
-    processImage(msg);
+    processImage(msg, info);
   }
   catch (const std::exception& e)
   {
@@ -223,6 +231,7 @@ void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg)
                 msg->width, msg->height, e.what());
     const auto& g = detector_.params().geometry;
     pose_pub_.publish(undefinedSpoolPose(msg->header, (g.hole_diameter - g.puller_diameter) / 2.0));
+    marker_pub_.publish(spoolMarker(msg->header, std::nullopt, g.flange_diameter, g.hub_length));
     ++window_failed_;
   }
   frequency_status_->tick();
@@ -247,7 +256,7 @@ bool SpoolDetectorRos::shouldLogError(const std::string& encoding, const std::st
   return true;
 }
 
-void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg)
+void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
 {
   checkBuffer(*msg);
   cv_bridge::CvImageConstPtr frame;
@@ -290,9 +299,11 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg)
     image = frame->image;
   }
 
+  updateCamera(info, cols, rows);
   const SpoolDetection detection = detector_.detect(image, format);
   reportCameraSource(*msg);
   pose_pub_.publish(toSpoolPose(detection, msg->header));
+  publishSpool3d(detection, msg->header);
 
   ++window_frames_;
   window_detected_ += detection.detected ? 1 : 0;
@@ -304,28 +315,112 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg)
         cv_bridge::CvImage(msg->header, enc::BGR8, renderOverlay(image, format, detection)).toImageMsg());
 }
 
+void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info, int width, int height)
+{
+  // A camera publishes the same calibration with every frame: convert it only when it changes.
+  if (!info || (cv::Size(width, height) == last_image_size_ &&
+                (info == last_info_ || (last_info_ && sameCalibration(*info, *last_info_)))))
+    return;
+  last_info_ = info;
+  last_image_size_ = cv::Size(width, height);
+  const CameraInfoConversion conversion = cameraFromInfo(*info, width, height);
+  if (!conversion.camera)
+  {
+    if (info_camera_)
+      detector_.clearCamera();
+    info_camera_.reset();
+    camera_problem_ = camera_sub_.getInfoTopic() + ": " + conversion.problem;
+    camera_refused_ = conversion.refused;
+    return;
+  }
+  if (!conversion.scaled.empty() && conversion.scaled != reported_scaling_)
+    ROS_WARN("spool_detector: %s", conversion.scaled.c_str());
+  reported_scaling_ = conversion.scaled;
+  if (info_camera_ != conversion.camera)
+  {
+    detector_.setCamera(*conversion.camera);
+    info_camera_ = conversion.camera;
+  }
+  camera_problem_.clear();
+}
+
+void SpoolDetectorRos::publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header)
+{
+  const std::optional<geometry_msgs::Pose> pose = spoolPose3d(detection);
+  const auto& g = detector_.params().geometry;
+  marker_pub_.publish(spoolMarker(header, pose, g.flange_diameter, g.hub_length));
+  if (!pose)
+    return;
+  geometry_msgs::PoseStamped stamped;
+  stamped.header = header;
+  stamped.pose = *pose;
+  pose_stamped_pub_.publish(stamped);
+  if (!tf_broadcaster_)
+    return;
+  if (header.frame_id.empty())
+  {
+    // TF needs a parent frame; the pose and marker carry the same empty frame_id regardless.
+    if (!frame_id_missing_reported_)
+      ROS_WARN(
+          "spool_detector: the images have no frame_id, so no TF frame %s can be published; set the camera "
+          "driver's frame_id (e.g. camera_optical_frame)",
+          spool_frame_.c_str());
+    frame_id_missing_reported_ = true;
+    return;
+  }
+  geometry_msgs::TransformStamped transform;
+  transform.header = header;
+  transform.child_frame_id = spool_frame_;
+  transform.transform.translation.x = pose->position.x;
+  transform.transform.translation.y = pose->position.y;
+  transform.transform.translation.z = pose->position.z;
+  transform.transform.rotation = pose->orientation;
+  tf_broadcaster_->sendTransform(transform);
+}
+
 void SpoolDetectorRos::reportCameraSource(const sensor_msgs::Image& msg)
 {
   if (!detector_.usingFallbackCamera())
   {
-    if (fallback_reported_)
+    if (!reported_problem_.empty())
       ROS_INFO("spool_detector: using the camera_info intrinsics (fx %.1f, fy %.1f px)", info_camera_->fx,
                info_camera_->fy);
-    fallback_reported_ = false;
+    reported_problem_.clear();
     return;
   }
-  if (fallback_reported_)
+  if (camera_problem_ == reported_problem_)
     return;
-  std::string why = camera_problem_;
-  if (info_camera_)
-    why = "camera_info is for " + std::to_string(info_camera_->width) + "x" + std::to_string(info_camera_->height) +
-          " but the images are " + std::to_string(msg.width) + "x" + std::to_string(msg.height);
-  const double focal = detector_.params().geometry.fallback_focal_length * msg.height / 120.0;
+  char camera[96];
+  std::snprintf(camera, sizeof(camera), "f = %.1f px for %ux%u",
+                detector_.params().geometry.fallback_focal_length * msg.height / 120.0, msg.width, msg.height);
+  const std::string fallback = camera_problem_ + "; falling back to the thesis camera (" + camera +
+                               ", principal point at the image centre). Distances and angles are only as good as "
+                               "that guess: calibrate the camera.";
+  if (camera_refused_)
+    ROS_ERROR("spool_detector: %s", fallback.c_str());
+  else
+    ROS_WARN("spool_detector: %s", fallback.c_str());
+  reported_problem_ = camera_problem_;
+}
+
+void SpoolDetectorRos::checkCameraInfoPublished()
+{
+  const bool idle = frames_since_check_ == 0;
+  frames_since_check_ = 0;
+  if (!idle || missing_info_reported_ || camera_sub_.getNumPublishers() == 0)
+    return;
+  ros::master::V_TopicInfo topics;
+  if (!ros::master::getTopics(topics))
+    return;
+  const std::string info_topic = camera_sub_.getInfoTopic();
+  if (std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) { return t.name == info_topic; }))
+    return;
   ROS_WARN(
-      "spool_detector: %s; falling back to the thesis camera (f = %.1f px for %ux%u, principal point at "
-      "the image centre). Distances and angles are only as good as that guess: calibrate the camera.",
-      why.c_str(), focal, msg.width, msg.height);
-  fallback_reported_ = true;
+      "spool_detector: %s is published but %s is not, and images are processed only with the camera_info of "
+      "their stamp: nothing is measured. Publish the camera's camera_info, or set ~use_camera_info false to "
+      "measure images alone with the thesis camera",
+      camera_sub_.getTopic().c_str(), info_topic.c_str());
+  missing_info_reported_ = true;
 }
 
 void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status)

@@ -1,5 +1,6 @@
-// The ROS adapter: image + camera_info in, spool_vision/SpoolPose (and a debug overlay) out.
-// One class behind both the `spool_detector` node and the SpoolDetectorNodelet.
+// The ROS adapter: image + camera_info in; spool_vision/SpoolPose, the spool's 3D pose (PoseStamped,
+// optionally TF), an RViz marker and a debug overlay out. One class behind both the
+// `spool_detector` node and the SpoolDetectorNodelet.
 #pragma once
 
 #include <map>
@@ -15,6 +16,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <tf2_ros/transform_broadcaster.h>
 
 #include "spool_vision/SpoolDetectorConfig.h"
 #include "spool_vision/spool_detector.h"
@@ -36,13 +38,18 @@ public:
   static const std::set<std::string>& rosKeys();
 
 private:
-  void imageCallback(const sensor_msgs::ImageConstPtr& msg);
-  void cameraInfoCallback(const sensor_msgs::CameraInfoConstPtr& msg);
+  /// `info` is the image's camera_info (same stamp), or null with use_camera_info false.
+  void imageCallback(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info);
   void reconfigureCallback(SpoolDetectorConfig& config, uint32_t level);
-  void processImage(const sensor_msgs::ImageConstPtr& msg);
+  void processImage(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info);
+  /// Gives the detector the camera `info` describes for an image of this size (or the fallback).
+  void updateCamera(const sensor_msgs::CameraInfoConstPtr& info, int width, int height);
+  void publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header);
   /// True when an input error of this kind was not logged in the last throttle period.
   bool shouldLogError(const std::string& encoding, const std::string& what);
   void reportCameraSource(const sensor_msgs::Image& msg);
+  /// Images published but no camera_info beside them: say once that nothing is processed and why.
+  void checkCameraInfoPublished();
   void diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle nh_;
@@ -51,10 +58,16 @@ private:
 
   image_transport::ImageTransport it_;
   image_transport::ImageTransport private_it_;
+  // use_camera_info true: image + camera_info pairs; false: images alone (thesis camera).
+  image_transport::CameraSubscriber camera_sub_;
   image_transport::Subscriber image_sub_;
-  ros::Subscriber camera_info_sub_;
   ros::Publisher pose_pub_;
+  ros::Publisher pose_stamped_pub_;
+  ros::Publisher marker_pub_;
   image_transport::Publisher debug_pub_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;  ///< with publish_tf only
+  std::string spool_frame_;
+  bool frame_id_missing_reported_ = false;
 
   std::unique_ptr<dynamic_reconfigure::Server<SpoolDetectorConfig>> reconfigure_server_;
   std::optional<SpoolDetectorConfig> applied_config_;
@@ -66,9 +79,16 @@ private:
   ros::WallTimer diagnostics_timer_;
 
   // Camera source: calibrated intrinsics from camera_info, or why the fallback applies.
+  sensor_msgs::CameraInfoConstPtr last_info_;  ///< converted for last_image_size_
+  cv::Size last_image_size_;
   std::optional<CameraIntrinsics> info_camera_;
   std::string camera_problem_ = "no camera_info received yet";
-  bool fallback_reported_ = false;
+  bool camera_refused_ = false;   ///< camera_problem_ is a refused calibration (an error)
+  std::string reported_problem_;  ///< the fallback reason last logged; empty while calibrated
+  std::string reported_scaling_;
+  ros::WallTimer camera_info_check_timer_;
+  int frames_since_check_ = 0;
+  bool missing_info_reported_ = false;
 
   // Statistics since the last diagnostics update.
   int window_frames_ = 0;

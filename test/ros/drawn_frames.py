@@ -76,16 +76,17 @@ def image_msg(pixels, encoding):
     return msg
 
 
-def camera_info_msg(calibrated=True):
+def camera_info_msg(calibrated=True, k_focal=FOCAL, p_focal=FOCAL, d=(0.0,) * 5, model="plumb_bob"):
+    """The drawing camera's calibration; k_focal, p_focal and d make K, P and D differ from it."""
     from sensor_msgs.msg import CameraInfo
     msg = CameraInfo()
     msg.width, msg.height = WIDTH, HEIGHT
     if calibrated:
-        msg.distortion_model = "plumb_bob"
-        msg.D = [0.0] * 5
-        msg.K = [FOCAL, 0.0, CX, 0.0, FOCAL, CY, 0.0, 0.0, 1.0]
+        msg.distortion_model = model
+        msg.D = list(d)
+        msg.K = [k_focal, 0.0, CX, 0.0, k_focal, CY, 0.0, 0.0, 1.0]
         msg.R = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-        msg.P = [FOCAL, 0.0, CX, 0.0, 0.0, FOCAL, CY, 0.0, 0.0, 0.0, 1.0, 0.0]
+        msg.P = [p_focal, 0.0, CX, 0.0, 0.0, p_focal, CY, 0.0, 0.0, 0.0, 1.0, 0.0]
     return msg
 
 

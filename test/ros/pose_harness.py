@@ -26,7 +26,7 @@ def wait_until(condition, timeout=TIMEOUT, what="condition"):
 
 class DetectorClient(object):
     def __init__(self, node_name="/spool_detector", image_topic="/camera/image_raw",
-                 info_topic="/camera/camera_info", publish=True):
+                 info_topic="/camera/camera_info", publish=True, publish_info=True):
         self.node_name = node_name
         self._lock = threading.Lock()
         self._poses = {}
@@ -34,8 +34,10 @@ class DetectorClient(object):
         self._next_stamp = 1000
         self.pose_sub = rospy.Subscriber("/spool_pose", SpoolPose, self._on_pose, queue_size=100)
         self.log_sub = rospy.Subscriber("/rosout", Log, self._on_log, queue_size=1000)
+        self.info_pub = None
         if publish:
             self.image_pub = rospy.Publisher(image_topic, Image, queue_size=10)
+        if publish and publish_info:
             self.info_pub = rospy.Publisher(info_topic, CameraInfo, queue_size=10)
 
     def _on_pose(self, msg):
@@ -48,11 +50,14 @@ class DetectorClient(object):
                 self.logs.append(msg)
 
     def connect(self, publish=True):
-        """Waits until the detector listens to us and we listen to it (poses and its log)."""
+        """Waits until the detector listens to us and we listen to it (poses and its log). A
+        detector with use_camera_info false does not subscribe camera_info: make the client with
+        publish_info=False."""
         wait_until(lambda: self.pose_sub.get_num_connections() > 0, what="/spool_pose publisher")
         wait_until(lambda: self.node_name in self._log_publishers(), what="the detector's /rosout")
         if publish:
             wait_until(lambda: self.image_pub.get_num_connections() > 0, what="image subscriber")
+        if publish and self.info_pub is not None:
             wait_until(lambda: self.info_pub.get_num_connections() > 0, what="camera_info subscriber")
 
     def _log_publishers(self):
@@ -60,7 +65,8 @@ class DetectorClient(object):
                 if hasattr(c, "callerid_pub")]
 
     def send(self, image, info=None, frame_id="test_camera"):
-        """Publishes camera_info (if given) then the image; returns the SpoolPose for the image."""
+        """Publishes camera_info (if given) then the image; returns the SpoolPose for the image.
+        A detector with use_camera_info true (the default) answers only images sent with info."""
         stamp = rospy.Time(self._next_stamp)
         self._next_stamp += 1
         image.header.stamp = stamp
@@ -83,3 +89,29 @@ class DetectorClient(object):
     def log_lines(self, level, containing=""):
         with self._lock:
             return [m.msg for m in self.logs if m.level == level and containing in m.msg]
+
+
+class StampedMessages(object):
+    """The messages of one of the detector's stamped outputs (~pose, ~marker) by header stamp:
+    each carries the header of the image it was made from."""
+
+    def __init__(self, topic, msg_type):
+        self._lock = threading.Lock()
+        self._msgs = {}
+        self.sub = rospy.Subscriber(topic, msg_type, self._on_msg, queue_size=100)
+
+    def _on_msg(self, msg):
+        with self._lock:
+            self._msgs[msg.header.stamp] = msg
+
+    def connect(self):
+        wait_until(lambda: self.sub.get_num_connections() > 0, what=self.sub.name + " publisher")
+
+    def get(self, stamp, timeout=TIMEOUT):
+        wait_until(lambda: self.has(stamp), timeout, "%s stamped %s" % (self.sub.name, stamp))
+        with self._lock:
+            return self._msgs[stamp]
+
+    def has(self, stamp):
+        with self._lock:
+            return stamp in self._msgs

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """rostest: bad input through the node. An uncalibrated camera_info gives one fallback warning;
 a wrong encoding, an empty image or a short buffer gives a throttled error and a not-detected
-SpoolPose; the node keeps running and answers the next good frame."""
+SpoolPose; the node keeps running and answers the next good frame. Every image goes with a
+camera_info of its stamp (the node processes image + camera_info pairs)."""
 import math
 import time
 import unittest
@@ -24,13 +25,16 @@ class BadInputTest(unittest.TestCase):
         cls.client = DetectorClient()
         cls.client.connect()
 
+    def send(self, image):
+        return self.client.send(image, df.camera_info_msg())
+
     def good_frame(self, info=None):
-        pose = self.client.send(df.image_msg(df.draw_spool(0.0, 0.8), "mono8"), info)
+        pose = self.client.send(df.image_msg(df.draw_spool(0.0, 0.8), "mono8"), info or df.camera_info_msg())
         self.assertTrue(pose.detected, "the node must still answer good frames")
         return pose
 
     def assert_rejected(self, image, why):
-        pose = self.client.send(image)
+        pose = self.send(image)
         self.assertFalse(pose.detected, why)
         self.assertTrue(math.isnan(pose.distance), why)
         self.assertTrue(math.isnan(pose.reference_x), why)
@@ -42,7 +46,7 @@ class BadInputTest(unittest.TestCase):
             # The thesis camera scaled to 480 rows is f = 800 px, as these frames were drawn.
             truth = df.truth(0.0, 0.8)["distance"]
             self.assertAlmostEqual(pose.distance, truth, delta=0.02 * truth)
-        self.good_frame()  # without camera_info now: still the fallback, still no new warning
+        self.good_frame(df.camera_info_msg(calibrated=False))  # still the fallback, no new warning
         wait_until(lambda: self.client.log_lines(Log.WARN, "falling back"), what="the fallback warning")
         self.assertEqual(len(self.client.log_lines(Log.WARN, "falling back")), 1)
         self.assertIn("thesis camera", self.client.log_lines(Log.WARN, "falling back")[0])
@@ -73,7 +77,7 @@ class BadInputTest(unittest.TestCase):
         start = time.time()
         bad = 30
         for _ in range(bad):
-            self.client.send(df.image_msg(np.zeros((0, 0), np.uint8), "mono8"))
+            self.send(df.image_msg(np.zeros((0, 0), np.uint8), "mono8"))
         elapsed = time.time() - start
         self.good_frame()  # every error of the burst was logged before this answer
         wait_until(lambda: len(self.client.log_lines(Log.ERROR)) > before, what="the burst's error")
@@ -85,8 +89,8 @@ class BadInputTest(unittest.TestCase):
     def test_7_each_kind_of_error_is_logged(self):
         # One throttle for all errors once hid a yuv422_yuy2 error behind an earlier, different
         # one: now each kind has its own. Two new kinds right after each other both show.
-        self.client.send(df.image_msg(np.zeros((4, 4), np.uint16), "16UC3"))
-        self.client.send(df.image_msg(df.draw_spool(0.0, 0.8), "another_unknown_encoding"))
+        self.send(df.image_msg(np.zeros((4, 4), np.uint16), "16UC3"))
+        self.send(df.image_msg(df.draw_spool(0.0, 0.8), "another_unknown_encoding"))
         self.good_frame()
         wait_until(lambda: self.client.log_lines(Log.ERROR, "16UC3"), what="the 16UC3 error")
         wait_until(lambda: self.client.log_lines(Log.ERROR, "another_unknown_encoding"),
