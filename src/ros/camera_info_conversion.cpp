@@ -7,6 +7,8 @@
 #include <image_geometry/pinhole_camera_model.h>
 #include <sensor_msgs/distortion_models.h>
 
+#include "spool_vision/detector_params.h"
+
 namespace spool_vision
 {
 namespace
@@ -37,7 +39,8 @@ CameraInfoConversion refuse(const std::string& problem)
 
 }  // namespace
 
-CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int image_width, int image_height)
+CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int image_width, int image_height,
+                                    bool rectified)
 {
   namespace models = sensor_msgs::distortion_models;
   if (!(info.K[0] > 0.0 && info.K[4] > 0.0 && info.width > 0 && info.height > 0))
@@ -51,7 +54,7 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
   image_geometry::PinholeCameraModel model;
   model.fromCameraInfo(info);
   CameraIntrinsics camera;
-  const bool raw = std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
+  const bool raw = !rectified && std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
   if (raw)
   {
     const bool plumb_bob = info.distortion_model == models::PLUMB_BOB && info.D.size() == 5;
@@ -112,6 +115,16 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
   }
   result.camera = camera;
   return result;
+}
+
+bool isRectifiedStream(const std::string& setting, const std::string& image_topic)
+{
+  if (setting == "true" || setting == "false")
+    return setting == "true";
+  if (setting != "auto")
+    throw ParamError("rectified", "'" + setting + "' is not allowed; allowed: auto, true or false");
+  const std::string name = image_topic.substr(image_topic.find_last_of('/') + 1);
+  return name.rfind("image_rect", 0) == 0;
 }
 
 bool sameCalibration(const sensor_msgs::CameraInfo& a, const sensor_msgs::CameraInfo& b)

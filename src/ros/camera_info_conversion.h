@@ -27,8 +27,9 @@ struct CameraInfoConversion
 
 /// Reads `info` for an image of image_width x image_height:
 /// - K all zero (an uncalibrated camera_info_manager): no camera;
-/// - D all zero or empty: the image is rectified (image_rect) or undistorted, described by P
-///   (K when P is unset); no distortion;
+/// - `rectified` (the image is image_proc's image_rect, published beside the raw camera_info and
+///   its D) or D all zero or empty: the image is rectified or undistorted, described by P (K
+///   when P is unset); no distortion;
 /// - otherwise a raw image: K with D, plumb_bob (5 coefficients) or rational_polynomial (8);
 ///   other models (equidistant, ...) are refused;
 /// - binning and ROI as PinholeCameraModel applies them (principal point shifted by the ROI
@@ -37,7 +38,13 @@ struct CameraInfoConversion
 /// - an image of another size with the same aspect ratio (within 1%): the calibrated image
 ///   resized, fx, cx scaled by the width ratio and fy, cy by the height ratio (pixel centres:
 ///   c' = (c + 0.5) s - 0.5); another aspect ratio (a crop or another sensor mode) is refused.
-CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int image_width, int image_height);
+CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int image_width, int image_height,
+                                    bool rectified = false);
+
+/// The `rectified` key: "true", "false", or "auto", which takes an image topic whose last name
+/// starts with image_rect (image_proc's image_rect, image_rect_color) for rectified. Throws
+/// ParamError on another value.
+bool isRectifiedStream(const std::string& setting, const std::string& image_topic);
 
 /// True when `a` and `b` describe the same camera (every field but the header).
 bool sameCalibration(const sensor_msgs::CameraInfo& a, const sensor_msgs::CameraInfo& b);

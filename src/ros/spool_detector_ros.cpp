@@ -92,7 +92,8 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
   static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
-                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame"};
+                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame",
+                                             "rectified"};
   return keys;
 }
 
@@ -113,6 +114,8 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
     throw ParamError("max_rate", "min_rate and max_rate must satisfy 0 < min_rate <= max_rate");
   const bool use_camera_info = readRosOption<bool>(pnh_, "use_camera_info", true, "true or false");
   const bool publish_tf = readRosOption<bool>(pnh_, "publish_tf", false, "true or false");
+  const auto rectified = readRosOption<std::string>(pnh_, "rectified", "auto", "auto, true or false");
+  rectified_ = isRectifiedStream(rectified, nh_.resolveName("image"));
   spool_frame_ = readRosOption<std::string>(pnh_, "spool_frame", "spool", "a TF frame name");
   if (spool_frame_.empty())
     throw ParamError("spool_frame", "must not be empty; allowed: a TF frame name such as spool");
@@ -323,7 +326,7 @@ void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info,
     return;
   last_info_ = info;
   last_image_size_ = cv::Size(width, height);
-  const CameraInfoConversion conversion = cameraFromInfo(*info, width, height);
+  const CameraInfoConversion conversion = cameraFromInfo(*info, width, height, rectified_);
   if (!conversion.camera)
   {
     if (info_camera_)

@@ -82,6 +82,7 @@ private:
   sensor_msgs::CameraInfoConstPtr last_info_;  ///< converted for last_image_size_
   cv::Size last_image_size_;
   std::optional<CameraIntrinsics> info_camera_;
+  bool rectified_ = false;  ///< the image is rectified (P, no distortion) whatever D says
   std::string camera_problem_ = "no camera_info received yet";
   bool camera_refused_ = false;   ///< camera_problem_ is a refused calibration (an error)
   std::string reported_problem_;  ///< the fallback reason last logged; empty while calibrated

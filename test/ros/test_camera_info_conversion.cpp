@@ -54,6 +54,26 @@ TEST(CameraInfoConversion, RectifiedImageWithZeroDIsP)
   EXPECT_TRUE(result.camera->distortion.empty());
 }
 
+TEST(CameraInfoConversion, ImageRectBesideTheRawCameraInfoIsPWhateverD)
+{
+  // image_proc publishes image_rect beside the raw camera_info: D is the lens's, P describes it.
+  const auto result = cameraFromInfo(calibration("plumb_bob", kPlumbBob), 640, 480, /*rectified=*/true);
+  ASSERT_TRUE(result.camera) << result.problem;
+  expectIntrinsics(*result.camera, 760.0, 770.0, 318.0, 241.0, 640, 480);
+  EXPECT_FALSE(result.camera->distorted());
+}
+
+TEST(CameraInfoConversion, RectifiedAutoGoesByTheImageTopicsName)
+{
+  EXPECT_TRUE(spool_vision::isRectifiedStream("auto", "/camera/image_rect"));
+  EXPECT_TRUE(spool_vision::isRectifiedStream("auto", "/camera/image_rect_color"));
+  EXPECT_FALSE(spool_vision::isRectifiedStream("auto", "/camera/image_raw"));
+  EXPECT_FALSE(spool_vision::isRectifiedStream("auto", "/image_rect/image_raw"));
+  EXPECT_TRUE(spool_vision::isRectifiedStream("true", "/camera/image_raw"));
+  EXPECT_FALSE(spool_vision::isRectifiedStream("false", "/camera/image_rect"));
+  EXPECT_THROW(spool_vision::isRectifiedStream("yes", "/camera/image_rect"), spool_vision::ParamError);
+}
+
 TEST(CameraInfoConversion, EmptyDAndUnsetPFallBackToK)
 {
   auto info = calibration("", {});
