@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "../../src/ros/camera_info_conversion.h"
+#include "spool_vision/detector_params.h"
 
 namespace spool_vision
 {
