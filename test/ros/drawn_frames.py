@@ -2,7 +2,7 @@
 """Simple drawn spool frames for the ROS tests: a dark 35 cm flange disc on a lighter
 background with a bright 3.6 cm hole at its centre, seen by an ideal 640x480 camera (f = 800 px).
 
-As a program it writes the approach sequence (110 -> 50 cm, sideways error shrinking to zero,
+As a program it writes the approach sequence (110 -> 51 cm, sideways error shrinking to zero,
 aligned in the last frames) in the renderer's layout: frame_%05d.png, frame_%05d.json (ground
 truth) and camera_info.yaml.
 """
@@ -35,18 +35,21 @@ def draw_spool(x, z, background=170, flange=35, hole=235):
     return image
 
 
-def truth(x, z, aligned_max_yaw=math.radians(0.25), window=(0.5, 0.6)):
-    distance = math.sqrt(x * x + PULLER_BELOW_CAMERA ** 2 + z * z)
+def truth(x, z, aligned_max_yaw=math.radians(0.25), window=(0.5, 0.6), clearance=0.0025):
+    """distance is the depth z of the bore's front centre (DESIGN §5), range its Euclidean
+    distance. The drawn spool faces the camera (its axis along the optical axis, on the puller's
+    level), so the puller clears the bore at both ends when its sideways miss x is within t_f."""
     yaw = math.atan2(x, z)
-    return {"distance": distance, "yaw": yaw,
-            "aligned": abs(yaw) <= aligned_max_yaw and window[0] <= distance <= window[1]}
+    return {"distance": z, "range": math.sqrt(x * x + PULLER_BELOW_CAMERA ** 2 + z * z), "yaw": yaw,
+            "aligned": abs(yaw) <= aligned_max_yaw and abs(x) <= clearance and window[0] <= z <= window[1]}
 
 
 def approach_poses(count=16):
-    """(x, z) per frame: 110 -> 50 cm; the 5 cm sideways error is gone 5 frames before the end."""
+    """(x, z) per frame: 110 -> 51 cm deep (the last frame inside the insertion window, not on its
+    edge); the 5 cm sideways error is gone 5 frames before the end."""
     poses = []
     for i in range(count):
-        z = 1.10 - 0.60 * i / (count - 1)
+        z = 1.10 - 0.59 * i / (count - 1)
         x = 0.05 * max(0.0, 1.0 - i / (count - 5.0))
         poses.append((x, z))
     return poses
