@@ -39,10 +39,10 @@ public:
   /// through `centre` (px) that best explains `rim`, the flange rim's edge points (px, undistorted
   /// image), starting from `position` and `axis`. Gauss-Newton on each point's distance from the
   /// circle within the circle's plane (scaled to px at the circle's depth); a point more than
-  /// max(1.5 px, 1% of the radius) off (three times that in the first pass) is left out (the back flange's crescent beside an oblique
-  /// rim, a neighbour touching it). Unlike the ellipse's centre this uses whatever arc shows and
-  /// the rim's size and eccentricity too. False (outputs untouched) with fewer than 30 points in
-  /// the band or without convergence.
+  /// max(1.5 px, 1% of the radius) off (three times that in the first pass) is left out (the back flange's crescent
+  /// beside an oblique rim, a neighbour touching it). Unlike the ellipse's centre this uses whatever arc shows and the
+  /// rim's size and eccentricity too. False (outputs untouched) with fewer than 30 points in the band or without
+  /// convergence.
   bool fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Point2d& centre, cv::Point3d& position,
                   cv::Vec3d& axis) const;
 
@@ -82,8 +82,9 @@ public:
   /// Fills depth (distance), range, position, axis, yaw, reference, lateral offset, overlap and
   /// alignment of `detection` from its flange and (if hole_detected) hole. With a hole the pose
   /// is fitRimPose()'s on `rim` (rimPose()'s where that fails or `rim` is empty); without one the
-  /// flange centre and Eq. 3.2 give the position and the axis is NaN. Aligned: overlapped (Rule 3), depth in the insertion window, |yaw| <= aligned_max_yaw
-  /// and pullerMiss() within t_f at both ends of the bore (Eq. 3.8, taken along the bore).
+  /// flange centre and Eq. 3.2 give the position and the axis is NaN. Aligned: overlapped (Rule 3), depth in the
+  /// insertion window, |yaw| <= aligned_max_yaw and pullerMiss() within t_f at both ends of the bore (Eq. 3.8, taken
+  /// along the bore).
   void measure(SpoolDetection& detection, const std::vector<cv::Point2f>& rim = {}) const;
 
 private:

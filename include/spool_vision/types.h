@@ -125,9 +125,9 @@ struct SpoolDetection
 {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-  bool detected = false;         ///< flange found
-  bool hole_detected = false;    ///< a hole that passed the matcher
-  bool overlapped = false;       ///< flange and hole centres on the reference point (Rule 3)
+  bool detected = false;       ///< flange found
+  bool hole_detected = false;  ///< a hole that passed the matcher
+  bool overlapped = false;     ///< flange and hole centres on the reference point (Rule 3)
   /// Safe to insert: overlapped, in the insertion window, |yaw| small, and the puller's axis
   /// within tolerance of the bore's axis at the bore's front and back ends (SpoolGeometry::measure)
   bool aligned = false;
@@ -145,7 +145,7 @@ struct SpoolDetection
   double axis_angle = kNaN;  ///< rad, between the spool axis and the puller axis (optical z)
   /// rad, atan2(axis.x, axis.z): positive when the axis, followed into the spool, heads right
   double axis_yaw = kNaN;
-  double confidence = 0.0;       ///< 0..1: with a hole 0.5 + 0.5 * min(rim scores), flange alone 0.5 * its score
+  double confidence = 0.0;  ///< 0..1: with a hole 0.5 + 0.5 * min(rim scores), flange alone 0.5 * its score
   Circle flange;
   Circle hole;  ///< the bore's front rim
   /// Near the spool axis the lit wall shows through the bore only where its front and back

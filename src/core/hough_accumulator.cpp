@@ -224,8 +224,8 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
     const int yd = std::min(y + 1, h - 1);
     // J = d(undistorted) / d(raw), columns by central differences of the table.
     const cv::Vec2f jx = (row[xr] - row[xl]) / static_cast<float>(xr - xl);
-    const cv::Vec2f jy = (undistorted_.ptr<cv::Vec2f>(yd)[x] - undistorted_.ptr<cv::Vec2f>(yu)[x]) /
-                         static_cast<float>(yd - yu);
+    const cv::Vec2f jy =
+        (undistorted_.ptr<cv::Vec2f>(yd)[x] - undistorted_.ptr<cv::Vec2f>(yu)[x]) / static_cast<float>(yd - yu);
     const float ox = e.x - static_cast<float>(x);
     const float oy = e.y - static_cast<float>(y);
     const cv::Vec2f at = row[x] + jx * ox + jy * oy;

@@ -91,9 +91,9 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
-                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame",
-                                             "rectified"};
+  static const std::set<std::string> keys = {"image_transport", "queue_size",        "min_rate",
+                                             "max_rate",        "diagnostic_period", "use_camera_info",
+                                             "publish_tf",      "spool_frame",       "rectified"};
   return keys;
 }
 

@@ -212,9 +212,9 @@ TEST(SpoolGeometry, RimPoseGivesDepthPositionAndAxisOfATiltedSpool)
     cv::Vec3d centre;
     double yaw_deg, pitch_deg;
   };
-  for (const Case& k : {Case{{0.0, 0.06, 0.55}, 0.0, 0.0}, Case{{0.2, 0.06, 0.55}, 0.0, 0.0},
-                        Case{{0.0, 0.06, 0.55}, 1.0, 0.0}, Case{{0.15, 0.05, 0.6}, -4.0, 1.5},
-                        Case{{-0.35, 0.0, 1.05}, 5.0, -2.0}})
+  for (const Case& k :
+       {Case{{0.0, 0.06, 0.55}, 0.0, 0.0}, Case{{0.2, 0.06, 0.55}, 0.0, 0.0}, Case{{0.0, 0.06, 0.55}, 1.0, 0.0},
+        Case{{0.15, 0.05, 0.6}, -4.0, 1.5}, Case{{-0.35, 0.0, 1.05}, 5.0, -2.0}})
   {
     SCOPED_TRACE(::testing::Message() << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg);
     const cv::Vec3d n(std::tan(k.yaw_deg * kDeg), std::tan(k.pitch_deg * kDeg), 1.0);
