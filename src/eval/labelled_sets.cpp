@@ -73,8 +73,10 @@ void nearAlignedFrame(std::uint64_t set_seed, int index, SceneParams& scene, Cam
   pose.distance = std::sqrt(depth * depth + pose.height * pose.height + pose.lateral * pose.lateral);
 }
 
-// One frame of an approach: 110 cm to 50 cm, the lateral and heading errors shrink to zero
-// by 80% of the way (about 62 cm), so the last frames inside 60 cm are aligned.
+// One frame of an approach: 110 cm to 50 cm of depth (distance is depth: ending at 50 cm of
+// range would leave the last frame 3.6 mm short of the insertion window), the lateral and
+// heading errors shrink to zero by 80% of the way (about 62 cm), so the last frames inside 60 cm
+// are aligned.
 void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& scene, CameraPose& pose)
 {
   const std::uint64_t shelf_seed = ~frameSeed(set_seed, 0);  // the shelf shared by all frames
@@ -85,11 +87,12 @@ void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& sc
   const double s = count > 1 ? static_cast<double>(index) / (count - 1) : 1.0;
   const double left = std::pow(std::max(0.0, 1.0 - s / 0.8), 2.0);
   scene.seed = frameSeed(set_seed, index);  // fresh sensor noise per frame, same shelf
-  pose.distance = 1.10 - 0.60 * s;
+  const double depth = 1.10 - 0.60 * s;
   pose.lateral = lateral0 * left;
   pose.yaw = heading0 * left;
   pose.height = 0.06;
   pose.pitch = 0.0;
+  pose.distance = std::sqrt(depth * depth + pose.height * pose.height + pose.lateral * pose.lateral);
 }
 }  // namespace
 

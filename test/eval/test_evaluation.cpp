@@ -689,6 +689,25 @@ TEST(LabelledSets, AreAFunctionOfTheSeedAndCoverTheWorkingRange)
   EXPECT_GT(right, 20);
 }
 
+TEST(LabelledSets, TheApproachRunsFrom110To50CmOfDepthAndEndsAligned)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(160, 120));
+  std::vector<sv::GroundTruth> truth;
+  for (int i = 0; i < 40; ++i)
+  {
+    sv::SceneParams scene;
+    sv::CameraPose pose;
+    sv::setFrame(sv::FrameSet::kApproach, 1, i, 40, scene, pose);
+    truth.push_back(renderer.groundTruth(scene, pose));
+  }
+  EXPECT_NEAR(truth.front().distance, 1.10, 0.005);  // the heading error tilts the first view a little
+  EXPECT_NEAR(truth.back().distance, 0.50, 1e-9);
+  EXPECT_FALSE(truth.front().aligned);
+  for (int i = 33; i < 40; ++i)  // inside 60 cm from frame 33 on
+    EXPECT_TRUE(truth[i].aligned) << i;
+  EXPECT_FALSE(truth[32].aligned);
+}
+
 TEST(LabelledSets, TheDistortedSetIsMainThroughAC270LensPlusNearAlignedPoses)
 {
   const sv::CameraIntrinsics camera = sv::setCamera(sv::FrameSet::kDistorted, {640, 480});
