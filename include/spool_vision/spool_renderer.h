@@ -44,7 +44,7 @@ void lampRange(LampCondition lamps, double& min_lux, double& max_lux);
 /// Where the camera is. Position and orientation are relative to the target slot's hole axis.
 struct CameraPose
 {
-  double distance = 0.8;  ///< m, optical centre to the flange face centre (Euclidean)
+  double distance = 0.8;  ///< m, optical centre to the flange face centre (Euclidean: the range)
   double lateral = 0.0;   ///< m, camera x relative to the hole axis (positive = camera right)
   double height = 0.06;   ///< m, camera above the hole axis
   double yaw = 0.0;       ///< rad, rotation about the vertical axis, positive turns right
@@ -158,26 +158,29 @@ struct SceneParams
   std::uint64_t seed = 1;          ///< texture and noise
 };
 
-/// A 3D circle (rim) as it appears in the image.
+/// A 3D circle (rim) as it appears in the image. With lens distortion the positions (x, y,
+/// centre_x, centre_y, visible_fraction) are those of the distorted image the camera delivers;
+/// the sizes and the angle are those of the undistorted projection (the ellipse the pinhole
+/// camera K would see, i.e. the rectified image), which is what the geometry (Eq. 3.2) needs.
 struct ProjectedCircle
 {
-  double x = 0.0;  ///< px, centre of the projected ellipse (what a circle fit finds)
+  double x = 0.0;  ///< px, centre of the projected ellipse (what a circle fit finds), distorted
   double y = 0.0;
-  double centre_x = 0.0;  ///< px, projection of the circle's 3D centre
+  double centre_x = 0.0;  ///< px, projection of the circle's 3D centre, distorted
   double centre_y = 0.0;
-  double r = 0.0;                 ///< px, mean of the semi-axes
-  double semi_major = 0.0;        ///< px
-  double semi_minor = 0.0;        ///< px
-  double angle = 0.0;             ///< rad, major axis from the image u axis
-  double r_vertical = 0.0;        ///< px, half the vertical extent
-  double visible_fraction = 0.0;  ///< fraction of the rim inside the image
+  double r = 0.0;                 ///< px, mean of the semi-axes (undistorted projection)
+  double semi_major = 0.0;        ///< px (undistorted projection)
+  double semi_minor = 0.0;        ///< px (undistorted projection)
+  double angle = 0.0;             ///< rad, major axis from the image u axis (undistorted projection)
+  double r_vertical = 0.0;        ///< px, half the vertical extent (undistorted projection)
+  double visible_fraction = 0.0;  ///< fraction of the rim inside the (distorted) image
 };
 
 /// A spool beside the target slot, measured the way the target is.
 struct NeighbourTruth
 {
   ProjectedCircle flange;  ///< its front flange rim
-  double distance = 0.0;   ///< m, optical centre to its flange face centre
+  double distance = 0.0;   ///< m, depth: z of its flange face centre in the camera optical frame
   double yaw = 0.0;        ///< rad, bearing of its flange centre from the puller column
 };
 
@@ -190,14 +193,20 @@ struct GroundTruth
   CameraPose pose;
   CameraIntrinsics camera;
 
-  std::optional<ProjectedCircle> flange;   ///< front flange rim; only for a spool
-  std::optional<ProjectedCircle> hole;     ///< front opening of the bore; only for a spool
-  double distance = SpoolDetection::kNaN;  ///< m, optical centre to the flange face centre
-  /// rad, atan((u_flange - u_ref) / fx) with u_flange the projected 3D flange centre and u_ref
-  /// the projection of the puller axis point at the flange depth; positive = spool appears right.
+  std::optional<ProjectedCircle> flange;  ///< front flange rim; only for a spool
+  std::optional<ProjectedCircle> hole;    ///< front opening of the bore; only for a spool
+  /// m, the bore's front centre (= the flange face centre, where the spool axis leaves the front
+  /// face) in the camera optical frame (REP 103: x right, y down, z forward)
+  cv::Point3d position{SpoolDetection::kNaN, SpoolDetection::kNaN, SpoolDetection::kNaN};
+  double distance = SpoolDetection::kNaN;  ///< m, depth: position.z (DESIGN.md §5, thesis Eq. 3.2)
+  double range = SpoolDetection::kNaN;     ///< m, |position|: optical centre to the bore's front centre
+  /// rad, atan((u_flange - u_ref) / fx) in the undistorted image, with u_flange the projected 3D
+  /// flange centre and u_ref the projection of the puller axis point at the flange depth, i.e.
+  /// atan(position.x / position.z) (puller at x = 0); positive = spool appears right.
   double yaw = SpoolDetection::kNaN;
-  double lateral_offset = SpoolDetection::kNaN;                       ///< m, distance * tan(yaw)
-  cv::Point2d reference{SpoolDetection::kNaN, SpoolDetection::kNaN};  ///< px, puller axis
+  /// m, position.x minus the puller axis' x (0): positive = the bore is right of the puller
+  double lateral_offset = SpoolDetection::kNaN;
+  cv::Point2d reference{SpoolDetection::kNaN, SpoolDetection::kNaN};  ///< px, puller axis at the flange depth
   bool flange_half_visible = false;  ///< at least half of the flange rim inside the image
   /// The whole front opening inside the image and not hidden by the puller rod. A hole in view
   /// but dark (the detector must still find its front rim) is hole_in_view && !bore_visible.
@@ -208,10 +217,18 @@ struct GroundTruth
   /// px, centroid of the see-through lens (the front opening where the back opening shows
   /// through; above the rim's centre when the camera is above the axis); NaN when none
   cv::Point2d hole_lens{SpoolDetection::kNaN, SpoolDetection::kNaN};
-  double puller_miss = SpoolDetection::kNaN;  ///< m, puller axis to hole axis at the flange
-  double axis_angle = SpoolDetection::kNaN;   ///< rad, between puller and spool axes
-  /// Physically ready to insert: puller_miss <= t_f, |yaw| <= 0.25 deg, axis_angle <= 0.25 deg
-  /// and 0.5 m <= distance <= 0.6 m.
+  /// m, the puller axis to the bore axis in the plane of the bore's front face
+  double puller_miss = SpoolDetection::kNaN;
+  /// Unit vector along the spool axis from the front face into the spool, camera optical frame
+  cv::Vec3d axis{SpoolDetection::kNaN, SpoolDetection::kNaN, SpoolDetection::kNaN};
+  double axis_angle = SpoolDetection::kNaN;  ///< rad, between the spool axis and the puller axis (optical z)
+  double axis_yaw = SpoolDetection::kNaN;    ///< rad, atan2(axis.x, axis.z): positive = the axis heads right
+  /// The puller pushed straight in would not touch the bore wall: its axis (camera frame: through
+  /// (0, kPullerOffsetY, 0) along +z) lies within t_f = (hole_diameter - kPullerDiameter) / 2 of
+  /// the bore axis in the plane of the bore's front face and in that of its back end (bore_length
+  /// along the axis); between them the miss is never larger.
+  bool puller_clears = false;
+  /// Ready to insert: puller_clears and kAlignedDistanceMin <= distance <= kAlignedDistanceMax.
   bool aligned = false;
   std::vector<NeighbourTruth> neighbours;  ///< spools beside the slot (a detector may see them)
   bool spool_centre_in_view = false;       ///< any spool's flange centre (target or neighbour) in view
@@ -223,7 +240,10 @@ struct RenderedFrame
   GroundTruth truth;
 };
 
-/// Ray casts the scene: one ray per pixel centre, 4x4 rays on pixels where surfaces meet.
+/// Ray casts the scene: one ray per pixel centre, 4x4 rays on pixels where surfaces meet. With a
+/// lens distortion in the camera (plumb_bob or rational_polynomial) each ray goes along the
+/// undistorted direction of its pixel, so the image is distorted as the lens would distort it,
+/// without resampling.
 class SpoolRenderer
 {
 public:
@@ -246,7 +266,7 @@ public:
   static constexpr double kHoleHeight = 1.0;
   static constexpr double kPullerOffsetY = 0.06;
   static constexpr double kPullerDiameter = 0.031;
-  static constexpr double kAlignedMaxAngle = 0.004363323129985824;  ///< rad (0.25 deg)
+  /// m, the insertion window (depth)
   static constexpr double kAlignedDistanceMin = 0.5;
   static constexpr double kAlignedDistanceMax = 0.6;
 

@@ -100,6 +100,8 @@ std::string setName(FrameSet set)
       return "negatives";
     case FrameSet::kHard:
       return "hard";
+    case FrameSet::kDistorted:
+      return "distorted";
   }
   return "?";
 }
@@ -225,6 +227,10 @@ QualityBars QualityBars::forDefault(cv::Size size)
     bars.yaw_median_max_deg = 0.05;
     bars.yaw_p95_max_deg = 0.2;
     bars.time_median_max_ms = 4.0;
+    bars.lateral_p95_max_mm = 5.0;
+    bars.axis_angle_p95_max_deg = 1.0;
+    bars.unsafe_aligned_max = 0.0;
+    bars.aligned_recall_min = 0.95;
   }
   else if (size == cv::Size(160, 120) || size == cv::Size(320, 240))
   {
@@ -257,6 +263,8 @@ int FrameCounts::of(FrameSet set) const
       return negatives;
     case FrameSet::kHard:
       return hard;
+    case FrameSet::kDistorted:
+      return distorted;
     case FrameSet::kApproach:
       break;
   }

@@ -52,8 +52,31 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   }
 }
 
-// One frame of an approach: 110 cm to 50 cm, the lateral and heading errors shrink to zero
-// by 80% of the way (about 62 cm), so the last frames inside 60 cm are aligned.
+// A frame near the end of an approach, scene drawn afresh: 48-62 cm of depth (the insertion
+// window and a little beyond), the puller axis within 3 mm sideways and 1.5 mm up or down of the
+// bore's front centre, the heading within 0.6 deg and the pitch within 0.3 deg of the bore axis,
+// so that it clears the bore wall on about 60% of the frames and misses it narrowly on the rest.
+void nearAlignedFrame(std::uint64_t set_seed, int index, SceneParams& scene, CameraPose& pose)
+{
+  const std::uint64_t seed = frameSeed(set_seed, index) + 1;  // not main's frame `index`
+  cv::RNG rng{std::mt19937_64(seed)()};
+  scene = randomScene(SceneKind::kSpool, seed);
+  const double depth = rng.uniform(0.48, 0.62);
+  const double miss_x = rng.uniform(-0.003, 0.003);
+  const double miss_y = rng.uniform(-0.0015, 0.0015);
+  pose.yaw = rng.uniform(-0.6, 0.6) * kDeg;
+  pose.pitch = rng.uniform(-0.3, 0.3) * kDeg;
+  // The puller runs along the optical axis: it meets the face plane where these offsets put it
+  // (to first order in the angles; the truth is exact).
+  pose.lateral = miss_x - depth * std::tan(pose.yaw);
+  pose.height = SpoolRenderer::kPullerOffsetY + miss_y + depth * std::tan(pose.pitch);
+  pose.distance = std::sqrt(depth * depth + pose.height * pose.height + pose.lateral * pose.lateral);
+}
+
+// One frame of an approach: 110 cm to 50 cm of depth (distance is depth: ending at 50 cm of
+// range would leave the last frame 3.6 mm short of the insertion window), the lateral and
+// heading errors shrink to zero by 80% of the way (about 62 cm), so the last frames inside 60 cm
+// are aligned.
 void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& scene, CameraPose& pose)
 {
   const std::uint64_t shelf_seed = ~frameSeed(set_seed, 0);  // the shelf shared by all frames
@@ -64,11 +87,12 @@ void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& sc
   const double s = count > 1 ? static_cast<double>(index) / (count - 1) : 1.0;
   const double left = std::pow(std::max(0.0, 1.0 - s / 0.8), 2.0);
   scene.seed = frameSeed(set_seed, index);  // fresh sensor noise per frame, same shelf
-  pose.distance = 1.10 - 0.60 * s;
+  const double depth = 1.10 - 0.60 * s;
   pose.lateral = lateral0 * left;
   pose.yaw = heading0 * left;
   pose.height = 0.06;
   pose.pitch = 0.0;
+  pose.distance = std::sqrt(depth * depth + pose.height * pose.height + pose.lateral * pose.lateral);
 }
 }  // namespace
 
@@ -87,8 +111,18 @@ void setFrame(FrameSet set, std::uint64_t seed, int index, int count, SceneParam
 {
   if (set == FrameSet::kApproach)
     approachFrame(seed, index, count, scene, pose);
+  else if (set == FrameSet::kDistorted && index % 3 == 2)
+    nearAlignedFrame(seed, index, scene, pose);
   else
-    randomFrame(set, seed, index, scene, pose);
+    // The distorted set's other frames are main's, so the two sets compare frame by frame.
+    randomFrame(set == FrameSet::kDistorted ? FrameSet::kMain : set, seed, index, scene, pose);
+}
+
+const std::vector<double>& c270Distortion()
+{
+  // Barrel distortion of a C270-class lens (k1 about -0.2), a little decentring.
+  static const std::vector<double> d = {-0.2, 0.05, 0.001, -0.0005, 0.0};
+  return d;
 }
 
 CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
@@ -100,6 +134,12 @@ CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
   {
     camera.cx += 0.015 * size.width;
     camera.cy -= 0.012 * size.height;
+  }
+  if (set == FrameSet::kDistorted)
+  {
+    camera.cx -= 0.01 * size.width;
+    camera.cy += 0.008 * size.height;
+    camera.distortion = c270Distortion();
   }
   return camera;
 }

@@ -103,6 +103,9 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
   s.lamps = truth.lamps;
   s.time_ms = detection.time_ms;
   s.detected = detection.detected;
+  s.aligned_reported = detection.aligned;
+  s.truth_aligned = truth.aligned;
+  s.truth_puller_clears = truth.puller_clears;
   s.hole_reported = detection.detected && detection.hole_detected;
 
   const std::vector<SpoolTruth> spools = renderedSpools(truth);
@@ -147,6 +150,12 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
     s.distance_error = (detection.distance - judged.distance) / judged.distance;
     s.yaw_error = detection.yaw - judged.yaw;
   }
+  if (s.correct && judged.in_slot)
+  {
+    s.true_depth = truth.distance;
+    s.lateral_error = detection.lateral_offset - truth.lateral_offset;
+    s.axis_angle_error = detection.axis_angle - truth.axis_angle;
+  }
   return s;
 }
 
@@ -166,6 +175,7 @@ Spread spreadOf(const std::vector<double>& values)
 {
   Spread s;
   s.count = static_cast<int>(std::count_if(values.begin(), values.end(), [](double v) { return std::isfinite(v); }));
+  s.values = static_cast<int>(values.size());
   s.median = percentile(values, 0.5);
   s.p95 = percentile(values, 0.95);
   return s;
@@ -176,6 +186,8 @@ Metrics summarize(const std::vector<FrameScore>& scores)
   Metrics m;
   std::vector<double> distance_errors;
   std::vector<double> yaw_errors;
+  std::vector<double> lateral_errors;
+  std::vector<double> axis_angle_errors;
   std::vector<double> hole_centre_errors;
   std::vector<double> hole_radius_errors;
   std::vector<double> times;
@@ -197,13 +209,27 @@ Metrics summarize(const std::vector<FrameScore>& scores)
       m.missed += s.detected ? 0 : 1;
       m.on_other_spool += s.on_other_spool ? 1 : 0;
       m.bogus += s.detected && !s.correct && !s.on_other_spool ? 1 : 0;
+    }
+    // Correct detections only, NaN where the detector left a quantity unmeasured.
+    if (s.flange_eligible && s.correct)
+    {
       distance_errors.push_back(std::abs(s.distance_error));
       yaw_errors.push_back(std::abs(s.yaw_error) * 180.0 / M_PI);
     }
+    if (s.flange_eligible && std::isfinite(s.true_depth))
+    {
+      axis_angle_errors.push_back(std::abs(s.axis_angle_error) * 180.0 / M_PI);
+      if (s.true_depth >= kInsertionDepthMin && s.true_depth <= kInsertionDepthMax)
+        lateral_errors.push_back(std::abs(s.lateral_error) * 1000.0);
+    }
+    m.unsafe_aligned.add(!s.truth_puller_clears, s.aligned_reported);
+    m.aligned_recall.add(s.truth_aligned, s.aligned_reported);
     times.push_back(s.time_ms);
   }
   m.distance_error = spreadOf(distance_errors);
   m.yaw_error_deg = spreadOf(yaw_errors);
+  m.lateral_error_mm = spreadOf(lateral_errors);
+  m.axis_angle_error_deg = spreadOf(axis_angle_errors);
   m.hole_centre_error_px = spreadOf(hole_centre_errors);
   m.hole_radius_error_px = spreadOf(hole_radius_errors);
   m.time_ms = spreadOf(times);

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include <Eigen/Dense>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -721,6 +722,52 @@ Mat3 intrinsicMatrix(const CameraIntrinsics& k)
   return m;
 }
 
+cv::Matx33d cameraMatrix(const CameraIntrinsics& k)
+{
+  return {k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0};
+}
+
+// Where camera-frame points (z > 0) appear in the image the camera delivers: through its lens
+// distortion when it has one (OpenCV's model, which is ROS's).
+std::vector<cv::Point2d> imagePoints(const CameraIntrinsics& k, const std::vector<cv::Point3d>& points)
+{
+  std::vector<cv::Point2d> pixels;
+  if (k.distorted())
+  {
+    if (!points.empty())
+      cv::projectPoints(points, cv::Vec3d::all(0.0), cv::Vec3d::all(0.0), cameraMatrix(k), k.distortion, pixels);
+    return pixels;
+  }
+  pixels.reserve(points.size());
+  for (const cv::Point3d& p : points)
+    pixels.emplace_back(k.fx * p.x / p.z + k.cx, k.fy * p.y / p.z + k.cy);
+  return pixels;
+}
+
+cv::Point2d imagePoint(const CameraIntrinsics& k, const Vec3& p)
+{
+  return imagePoints(k, {cv::Point3d(p.x(), p.y(), p.z())}).front();
+}
+
+// The rays (camera frame, z = 1) through the given pixel positions: their undistorted normalised
+// coordinates, so that a ray caster draws the distorted image directly.
+std::vector<cv::Point2d> pixelRays(const CameraIntrinsics& k, const std::vector<cv::Point2d>& pixels)
+{
+  std::vector<cv::Point2d> rays;
+  if (k.distorted())
+  {
+    // OpenCV's default of 5 fixed-point steps leaves ~0.01 px in a C270's corners.
+    if (!pixels.empty())
+      cv::undistortPoints(pixels, rays, cameraMatrix(k), k.distortion, cv::noArray(), cv::noArray(),
+                          cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-9));
+    return rays;
+  }
+  rays.reserve(pixels.size());
+  for (const cv::Point2d& p : pixels)
+    rays.emplace_back((p.x - k.cx) / k.fx, (p.y - k.cy) / k.fy);
+  return rays;
+}
+
 // Projects the circle of `radius` around `centre` in the plane z = centre.z; nullopt when part
 // of it lies behind the camera (its image is then no ellipse).
 std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const CameraFrame& cam, const Vec3& centre,
@@ -731,19 +778,23 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
   const Vec3 e1 = world_to_cam.col(0);
   const Vec3 e2 = world_to_cam.col(1);
   ProjectedCircle pc;
-  int inside = 0;
+  std::vector<cv::Point3d> rim;
+  rim.reserve(kRimSamples);
   for (int i = 0; i < kRimSamples; ++i)
   {
     const double a = 2.0 * M_PI * i / kRimSamples;
     const Vec3 p = c + radius * (std::cos(a) * e1 + std::sin(a) * e2);
     if (p.z() < 1e-3)
       return std::nullopt;
-    if (insideImage(k, k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy))
-      ++inside;
+    rim.emplace_back(p.x(), p.y(), p.z());
   }
+  const std::vector<cv::Point2d> rim_px = imagePoints(k, rim);
+  const auto inside = std::count_if(rim_px.begin(), rim_px.end(),
+                                    [&k](const cv::Point2d& q) { return insideImage(k, q.x, q.y); });
   pc.visible_fraction = static_cast<double>(inside) / kRimSamples;
-  pc.centre_x = k.fx * c.x() / c.z() + k.cx;
-  pc.centre_y = k.fy * c.y() / c.z() + k.cy;
+  const cv::Point2d centre_px3d = imagePoint(k, c);
+  pc.centre_x = centre_px3d.x;
+  pc.centre_y = centre_px3d.y;
 
   // The plane-to-image homography maps the conic x^2 + y^2 = r^2 to the image conic.
   Mat3 h;
@@ -764,9 +815,9 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
   Eigen::Matrix2d m;
   m << 2.0 * A, B, B, 2.0 * C;
   const Eigen::Vector2d centre_px = m.inverse() * Eigen::Vector2d(-D, -E);
-  pc.x = centre_px.x();
-  pc.y = centre_px.y();
-  const double f0 = A * pc.x * pc.x + B * pc.x * pc.y + C * pc.y * pc.y + D * pc.x + E * pc.y + F;
+  const double x0 = centre_px.x();
+  const double y0 = centre_px.y();
+  const double f0 = A * x0 * x0 + B * x0 * y0 + C * y0 * y0 + D * x0 + E * y0 + F;
   Eigen::Matrix2d quad;
   quad << A, 0.5 * B, 0.5 * B, C;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(quad);
@@ -786,6 +837,11 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
   const double qb = 2.0 * B * D - 4.0 * A * E;
   const double qc = D * D - 4.0 * A * F;
   pc.r_vertical = 0.5 * std::sqrt(std::max(0.0, qb * qb - 4.0 * qa * qc)) / std::abs(qa);
+  // The ellipse centre where the lens puts it.
+  const cv::Point2d ellipse_centre = k.distorted() ? imagePoint(k, Vec3((x0 - k.cx) / k.fx, (y0 - k.cy) / k.fy, 1.0))
+                                                   : cv::Point2d(x0, y0);
+  pc.x = ellipse_centre.x;
+  pc.y = ellipse_centre.y;
   return pc;
 }
 
@@ -806,8 +862,7 @@ OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const
   const Mat3 world_to_cam = cam.rotation.transpose();
   OpeningView view;
   int total = 0;
-  int lit = 0;
-  cv::Point2d lens_sum(0.0, 0.0);
+  std::vector<cv::Point3d> lens;  // camera frame
   for (int i = 0; i < kGrid; ++i)
     for (int j = 0; j < kGrid; ++j)
     {
@@ -822,14 +877,15 @@ OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const
       view.occluded |= pullerRodHit(pc, scene.puller_rod_length) < 1.0;
       const Vec3 q = cam.centre + d * ((scene.bore_length - cam.centre.z()) / d.z());
       if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius)
-      {
-        ++lit;
-        lens_sum += cv::Point2d(k.fx * pc.x() / pc.z() + k.cx, k.fy * pc.y() / pc.z() + k.cy);
-      }
+        lens.emplace_back(pc.x(), pc.y(), pc.z());
     }
-  view.lit_fraction = total > 0 ? static_cast<double>(lit) / total : 0.0;
-  if (lit > 0)
-    view.lens = lens_sum / lit;
+  view.lit_fraction = total > 0 ? static_cast<double>(lens.size()) / total : 0.0;
+  if (lens.empty())
+    return view;
+  cv::Point2d lens_sum(0.0, 0.0);
+  for (const cv::Point2d& p : imagePoints(k, lens))
+    lens_sum += p;
+  view.lens = lens_sum / static_cast<double>(lens.size());
   return view;
 }
 
@@ -965,6 +1021,18 @@ void writeField(std::ostringstream& out, const char* key, double value)
   writeNumber(out, value);
 }
 
+// Writes `, "key": {"x": .., "y": .., "z": ..}`, or null when undefined.
+void writeXyz(std::ostringstream& out, const char* key, double x, double y, double z)
+{
+  out << ", \"" << key << "\": ";
+  if (!std::isfinite(x))
+  {
+    out << "null";
+    return;
+  }
+  out << "{\"x\": " << x << ", \"y\": " << y << ", \"z\": " << z << "}";
+}
+
 void writeCircle(std::ostringstream& out, const std::optional<ProjectedCircle>& c)
 {
   if (!c)
@@ -1022,12 +1090,14 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   gt.pose = pose;
   gt.camera = camera_;
 
+  const Mat3 world_to_cam = cam.rotation.transpose();
   const double big = 0.5 * scene.flange_diameter;
   for (const Vec3& centre : neighbourCentres(scene))
     if (auto pc = projectCircle(camera_, cam, centre, big))
     {
       gt.spool_centre_in_view |= insideImage(camera_, pc->centre_x, pc->centre_y);
-      gt.neighbours.push_back({*pc, (centre - cam.centre).norm(), std::atan((pc->centre_x - camera_.cx) / camera_.fx)});
+      const Vec3 c = world_to_cam * (centre - cam.centre);
+      gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z())});
     }
   if (scene.kind != SceneKind::kSpool)
     return gt;
@@ -1046,22 +1116,30 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   gt.hole_lens = opening.lens;
   gt.bore_visible = gt.hole_lit_fraction > 0.0;
 
-  gt.distance = (centre - cam.centre).norm();
-  const Vec3 c = cam.rotation.transpose() * (centre - cam.centre);
-  gt.reference.x = camera_.cx;
-  gt.reference.y = camera_.cy + camera_.fy * kPullerOffsetY / c.z();
-  gt.yaw = std::atan((gt.flange->centre_x - gt.reference.x) / camera_.fx);
-  gt.lateral_offset = gt.distance * std::tan(gt.yaw);
+  // Camera optical frame from here on; the puller axis runs along z through (0, kPullerOffsetY, 0).
+  const Vec3 c = world_to_cam * (centre - cam.centre);
+  gt.position = cv::Point3d(c.x(), c.y(), c.z());
+  gt.distance = c.z();
+  gt.range = c.norm();
+  gt.reference = imagePoint(camera_, Vec3(0.0, kPullerOffsetY, c.z()));
+  gt.yaw = std::atan(c.x() / c.z());
+  gt.lateral_offset = c.x();
 
-  const Vec3 puller_origin = cam.centre + cam.rotation.col(1) * kPullerOffsetY;
-  const Vec3 axis = cam.rotation.col(2);
-  const Vec3 at_flange = puller_origin - axis * (puller_origin.z() / axis.z());
-  gt.puller_miss = std::hypot(at_flange.x(), at_flange.y() - kHoleHeight);
+  const Vec3 axis = world_to_cam * Vec3::UnitZ();  // the spool axis is the world's z
+  gt.axis = cv::Vec3d(axis.x(), axis.y(), axis.z());
   gt.axis_angle = std::acos(std::clamp(axis.z(), -1.0, 1.0));
+  gt.axis_yaw = std::atan2(axis.x(), axis.z());
+  // The puller axis' miss of the bore axis in the plane across the bore at `end` (on its axis).
+  const Vec3 puller(0.0, kPullerOffsetY, 0.0);
+  auto missAt = [&](const Vec3& end)
+  {
+    const Vec3 through = puller + Vec3::UnitZ() * ((end - puller).dot(axis) / axis.z());
+    return (through - end).norm();
+  };
+  gt.puller_miss = missAt(c);
   const double tolerance = 0.5 * (scene.hole_diameter - kPullerDiameter);
-  gt.aligned = gt.puller_miss <= tolerance && std::abs(gt.yaw) <= kAlignedMaxAngle &&
-               gt.axis_angle <= kAlignedMaxAngle && gt.distance >= kAlignedDistanceMin &&
-               gt.distance <= kAlignedDistanceMax;
+  gt.puller_clears = gt.puller_miss <= tolerance && missAt(c + scene.bore_length * axis) <= tolerance;
+  gt.aligned = gt.puller_clears && gt.distance >= kAlignedDistanceMin && gt.distance <= kAlignedDistanceMax;
   return gt;
 }
 
@@ -1074,11 +1152,9 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
   const int w = camera_.width;
   const int h = camera_.height;
 
-  auto rayDir = [&](double u, double v)
-  { return Vec3(cam.rotation * Vec3((u - camera_.cx) / camera_.fx, (v - camera_.cy) / camera_.fy, 1.0)); };
-  auto sample = [&](double u, double v, int& key)
+  auto sample = [&](const cv::Point2d& ray, int& key)
   {
-    const Vec3 d = rayDir(u, v);
+    const Vec3 d = cam.rotation * Vec3(ray.x, ray.y, 1.0);
     const Hit hit = world.trace(cam.centre, d);
     if (hit.id < 0)
     {
@@ -1092,12 +1168,18 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
     return colour;
   };
 
+  std::vector<cv::Point2d> pixels;
+  pixels.reserve(static_cast<std::size_t>(w) * h);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+      pixels.emplace_back(u, v);
+  const std::vector<cv::Point2d> rays = pixelRays(camera_, pixels);
   cv::Mat radiance(h, w, CV_32FC3);
   cv::Mat keys(h, w, CV_32S);
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
     {
-      const Vec3 c = sample(u, v, keys.at<int>(v, u));
+      const Vec3 c = sample(rays[static_cast<std::size_t>(v) * w + u], keys.at<int>(v, u));
       radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(c.x(), c.y(), c.z());
     }
 
@@ -1112,6 +1194,15 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
       if (v + 1 < h && keys.at<int>(v + 1, u) != k)
         edge.at<uchar>(v, u) = edge.at<uchar>(v + 1, u) = 1;
     }
+  pixels.clear();
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+      if (edge.at<uchar>(v, u))
+        for (int i = 0; i < kSuperSamples; ++i)
+          for (int j = 0; j < kSuperSamples; ++j)
+            pixels.emplace_back(u + (j + 0.5) / kSuperSamples - 0.5, v + (i + 0.5) / kSuperSamples - 0.5);
+  const std::vector<cv::Point2d> sub_rays = pixelRays(camera_, pixels);
+  std::size_t next = 0;
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
     {
@@ -1119,9 +1210,8 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
         continue;
       Vec3 sum = Vec3::Zero();
       int unused = 0;
-      for (int i = 0; i < kSuperSamples; ++i)
-        for (int j = 0; j < kSuperSamples; ++j)
-          sum += sample(u + (j + 0.5) / kSuperSamples - 0.5, v + (i + 0.5) / kSuperSamples - 0.5, unused);
+      for (int k = 0; k < kSuperSamples * kSuperSamples; ++k)
+        sum += sample(sub_rays[next++], unused);
       sum /= kSuperSamples * kSuperSamples;
       radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(sum.x(), sum.y(), sum.z());
     }
@@ -1321,10 +1411,15 @@ std::string groundTruthToJson(const GroundTruth& t)
   writeField(out, "illuminance", t.illuminance);
   out << ", \"width\": " << t.camera.width << ", \"height\": " << t.camera.height
       << ", \"camera\": {\"fx\": " << t.camera.fx << ", \"fy\": " << t.camera.fy << ", \"cx\": " << t.camera.cx
-      << ", \"cy\": " << t.camera.cy << "}"
+      << ", \"cy\": " << t.camera.cy << ", \"distortion\": [";
+  for (std::size_t i = 0; i < t.camera.distortion.size(); ++i)
+    out << (i ? ", " : "") << t.camera.distortion[i];
+  out << "]}"
       << ", \"pose\": {\"distance\": " << t.pose.distance << ", \"lateral\": " << t.pose.lateral
       << ", \"height\": " << t.pose.height << ", \"yaw\": " << t.pose.yaw << ", \"pitch\": " << t.pose.pitch << "}";
   writeField(out, "distance", t.distance);
+  writeField(out, "range", t.range);
+  writeXyz(out, "position", t.position.x, t.position.y, t.position.z);
   writeField(out, "yaw", t.yaw);
   writeField(out, "lateral_offset", t.lateral_offset);
   out << ", \"flange\": ";
@@ -1345,8 +1440,10 @@ std::string groundTruthToJson(const GroundTruth& t)
   else
     out << "null";
   writeField(out, "puller_miss", t.puller_miss);
+  writeXyz(out, "axis", t.axis[0], t.axis[1], t.axis[2]);
   writeField(out, "axis_angle", t.axis_angle);
-  out << ", \"aligned\": " << t.aligned << ", \"spool_centre_in_view\": " << t.spool_centre_in_view
+  writeField(out, "axis_yaw", t.axis_yaw);
+  out << ", \"puller_clears\": " << t.puller_clears << ", \"aligned\": " << t.aligned << ", \"spool_centre_in_view\": " << t.spool_centre_in_view
       << ", \"neighbours\": [";
   for (std::size_t i = 0; i < t.neighbours.size(); ++i)
   {

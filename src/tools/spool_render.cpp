@@ -7,8 +7,11 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -23,16 +26,21 @@ namespace sv = spool_vision;
 namespace
 {
 const char* const kUsage =
-    "usage: spool_render --out DIR --width W --height H [--focal F] [--count N] [--seed S]\n"
-    "                    [--set main|approach|negatives|hard]\n"
+    "usage: spool_render --out DIR --width W --height H [--focal F] [--distortion D] [--count N]\n"
+    "                    [--seed S] [--set main|approach|negatives|hard|distorted]\n"
     "  --focal F   focal length in px (default: the thesis camera, 200 px at 120 rows)\n"
-    "  --count N   frames (default: main and hard 500, approach 40, negatives 100)\n"
+    "  --distortion D  lens distortion, OpenCV/ROS order: k1,k2,p1,p2[,k3] (plumb_bob) or\n"
+    "              k1,k2,p1,p2,k3,k4,k5,k6 (rational_polynomial); default: the set's lens\n"
+    "              (none; distorted: -0.2,0.05,0.001,-0.0005,0)\n"
+    "  --count N   frames (default: main, hard and distorted 500, approach 40, negatives 100)\n"
     "  --seed S    the set is a function of the seed (default 1)\n"
     "  --set       main: spools at 50-110 cm and +-20 deg bearing plus ~15% negatives;\n"
     "              approach: one spool from 110 cm to 50 cm, ending aligned;\n"
     "              negatives: empty slots and round objects that are not spools;\n"
     "              hard: main's poses with webcam effects (auto exposure, gain noise, MJPEG,\n"
-    "              blur), glossy ribbed faces, dark bores, clutter and the puller rod in view\n"
+    "              blur), glossy ribbed faces, dark bores, clutter and the puller rod in view;\n"
+    "              distorted: main's frames through a C270-like lens, every third frame near\n"
+    "              the end of an approach (48-62 cm, puller within a few mm of the bore axis)\n"
     "Writes DIR/frame_%05d.png, DIR/frame_%05d.json and DIR/camera_info.yaml.\n";
 
 struct Options
@@ -41,32 +49,64 @@ struct Options
   int width = 0;
   int height = 0;
   double focal = 0.0;
+  std::optional<std::vector<double>> distortion;
   int count = 0;
   std::uint64_t seed = 1;
   std::string set = "main";
   sv::FrameSet frame_set = sv::FrameSet::kMain;
 };
 
+// "k1,k2,p1,p2[,k3]" or eight coefficients -> the distortion vector.
+std::vector<double> parseDistortion(const std::string& text)
+{
+  std::vector<double> d;
+  std::stringstream list(text);
+  std::string item;
+  while (std::getline(list, item, ','))
+  {
+    std::size_t used = 0;
+    double value = 0.0;
+    try
+    {
+      value = std::stod(item, &used);
+    }
+    catch (const std::exception&)
+    {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || !std::isfinite(value))
+      throw sv::cli::UsageError("--distortion: '" + item + "' is not a number");
+    d.push_back(value);
+  }
+  if (d.size() != 4 && d.size() != 5 && d.size() != 8)
+    throw sv::cli::UsageError("--distortion: expected 4, 5 (plumb_bob) or 8 (rational_polynomial) numbers, got " +
+                              std::to_string(d.size()));
+  return d;
+}
+
 Options parseOptions(int argc, char** argv)
 {
   using sv::cli::UsageError;
-  const sv::cli::CommandLine line(argc, argv, {"--out", "--width", "--height", "--focal", "--count", "--seed", "--set"},
-                                  kUsage);
+  const sv::cli::CommandLine line(
+      argc, argv, {"--out", "--width", "--height", "--focal", "--distortion", "--count", "--seed", "--set"}, kUsage);
   Options o;
   o.out = line.text("--out");
   o.width = line.positiveInteger("--width", 8192, 0);
   o.height = line.positiveInteger("--height", 8192, 0);
   o.focal = line.positiveNumber("--focal", 0.0);
+  if (!line.text("--distortion").empty())
+    o.distortion = parseDistortion(line.text("--distortion"));
   o.count = line.positiveInteger("--count", 1000000, 0);
   o.seed = line.seed("--seed", o.seed);
   o.set = line.text("--set", o.set);
   static const std::map<std::string, sv::FrameSet> kSets = {{"main", sv::FrameSet::kMain},
                                                             {"approach", sv::FrameSet::kApproach},
                                                             {"negatives", sv::FrameSet::kNegatives},
-                                                            {"hard", sv::FrameSet::kHard}};
+                                                            {"hard", sv::FrameSet::kHard},
+                                                            {"distorted", sv::FrameSet::kDistorted}};
   const auto set = kSets.find(o.set);
   if (set == kSets.end())
-    throw UsageError("--set: expected main, approach, negatives or hard, got '" + o.set + "'");
+    throw UsageError("--set: expected main, approach, negatives, hard or distorted, got '" + o.set + "'");
   o.frame_set = set->second;
   if (o.out.empty())
     throw UsageError("--out is required");
@@ -75,7 +115,7 @@ Options parseOptions(int argc, char** argv)
   if (o.width < 32 || o.height < 32)
     throw UsageError("--width/--height: at least 32 px");
   if (o.count == 0)
-    o.count = o.set == "main" || o.set == "hard" ? 500 : (o.set == "approach" ? 40 : 100);
+    o.count = o.set == "approach" ? 40 : (o.set == "negatives" ? 100 : 500);
   return o;
 }
 
@@ -84,7 +124,9 @@ int run(int argc, char** argv)
   namespace fs = std::filesystem;
   const Options o = parseOptions(argc, argv);
   fs::create_directories(o.out);
-  const sv::CameraIntrinsics camera = sv::setCamera(o.frame_set, cv::Size(o.width, o.height), o.focal);
+  sv::CameraIntrinsics camera = sv::setCamera(o.frame_set, cv::Size(o.width, o.height), o.focal);
+  if (o.distortion)
+    camera.distortion = *o.distortion;
   sv::saveCameraInfoYaml((fs::path(o.out) / "camera_info.yaml").string(), camera, "spool_render");
   const sv::SpoolRenderer renderer(camera);
   for (int i = 0; i < o.count; ++i)

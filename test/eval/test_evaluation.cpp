@@ -357,6 +357,86 @@ TEST(Scoring, NaNDistancesAreLeftOutOfTheErrorStatistics)
   EXPECT_NEAR(m.yaw_error_deg.median, 0.001 * 180.0 / M_PI, 1e-9);
 }
 
+namespace
+{
+// The slot's spool at `depth` m in 3D: `lateral` m right of the puller, its axis `axis_angle`
+// rad off the optical axis; aligned when `clears` and in the insertion window.
+sv::GroundTruth spoolAt(double depth, double lateral, double axis_angle, bool clears)
+{
+  sv::GroundTruth t = slotSpool(330.0);
+  t.distance = depth;
+  t.lateral_offset = lateral;
+  t.axis_angle = axis_angle;
+  t.puller_clears = clears;
+  t.aligned = clears && depth >= 0.5 && depth <= 0.6;
+  return t;
+}
+
+sv::SpoolDetection measured(const sv::GroundTruth& t, double depth, double lateral, double axis_angle, bool aligned)
+{
+  sv::SpoolDetection d = flangeAt(circleOf(*t.flange), depth, t.yaw);
+  d.lateral_offset = lateral;
+  d.axis_angle = axis_angle;
+  d.aligned = aligned;
+  return d;
+}
+}  // namespace
+
+TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
+{
+  constexpr double kDeg = M_PI / 180.0;
+  // Truth and detection per frame; lateral errors 1, 2, 4 mm inside 50-60 cm, 10 mm at 80 cm
+  // (outside the window, not counted); axis-angle errors 0.5, 1, 0.25, 2 deg.
+  const sv::GroundTruth a = spoolAt(0.55, 0.002, 0.2 * kDeg, true);
+  const sv::GroundTruth b = spoolAt(0.52, -0.010, 0.5 * kDeg, false);
+  const sv::GroundTruth c = spoolAt(0.60, 0.001, 0.0, true);
+  const sv::GroundTruth d = spoolAt(0.80, 0.0, 1.0 * kDeg, true);
+  std::vector<sv::FrameScore> scores = {
+      sv::scoreFrame(a, measured(a, 0.55 * 1.01, 0.003, 0.7 * kDeg, true)),       // aligned, rightly
+      sv::scoreFrame(b, measured(b, 0.52, -0.012, -0.5 * kDeg, true)),            // aligned: the puller would touch
+      sv::scoreFrame(c, measured(c, 0.60 * 0.98, 0.005, 0.25 * kDeg, false)),     // aligned missed
+      sv::scoreFrame(d, measured(d, 0.80, 0.010, 3.0 * kDeg, false)),             // too far: not aligned, right
+      sv::scoreFrame(emptySlot(), sv::SpoolDetection())};                         // no spool: puller cannot clear
+  EXPECT_NEAR(scores[0].lateral_error, 0.001, 1e-12);
+  EXPECT_NEAR(scores[1].axis_angle_error, -1.0 * kDeg, 1e-12);
+  EXPECT_NEAR(scores[2].true_depth, 0.60, 1e-12);
+  EXPECT_TRUE(scores[0].truth_aligned);
+  EXPECT_FALSE(scores[1].truth_puller_clears);
+
+  const sv::Metrics m = sv::summarize(scores);
+  EXPECT_EQ(m.lateral_error_mm.count, 3);
+  EXPECT_NEAR(m.lateral_error_mm.median, 2.0, 1e-9);
+  EXPECT_NEAR(m.lateral_error_mm.p95, 3.8, 1e-9);  // 2 + 0.9 * (4 - 2)
+  EXPECT_EQ(m.axis_angle_error_deg.count, 4);
+  EXPECT_NEAR(m.axis_angle_error_deg.median, 0.75, 1e-9);
+  EXPECT_NEAR(m.axis_angle_error_deg.p95, 1.85, 1e-9);  // 1 + 0.85 * (2 - 1)
+  EXPECT_NEAR(m.distance_error.median, 0.005, 1e-9);     // 1%, 0, 2%, 0
+  EXPECT_EQ(m.unsafe_aligned.frames, 2);  // b and the empty slot
+  EXPECT_EQ(m.unsafe_aligned.hits, 1);
+  EXPECT_EQ(m.aligned_recall.frames, 2);  // a and c
+  EXPECT_EQ(m.aligned_recall.hits, 1);
+
+  // A detector that does not measure the axis yet: counted as frames, no values, "not measured".
+  scores[0] = sv::scoreFrame(a, measured(a, 0.55, 0.002, sv::FrameScore::kNaN, true));
+  const sv::Metrics unmeasured = sv::summarize({scores[0]});
+  EXPECT_EQ(unmeasured.axis_angle_error_deg.count, 0);
+  EXPECT_EQ(unmeasured.axis_angle_error_deg.values, 1);
+  EXPECT_TRUE(std::isnan(unmeasured.axis_angle_error_deg.p95));
+  sv::EvaluationResult r;
+  r.config.setups = {{"vga", {640, 480}, {}, sv::QualityBars::forDefault({640, 480}), {}, false}};
+  r.config.groups = {{"distorted", {sv::FrameSet::kDistorted}, true}};
+  sv::GroupResult group;
+  group.metrics = unmeasured;
+  r.setups = {{{group}}};
+  const std::vector<sv::BarRow> rows = sv::poseRows(r, 0);
+  ASSERT_EQ(rows.size(), 10u);
+  EXPECT_EQ(rows[7].per_setup[0].measured, "n/a (not measured)");  // axis-angle p95
+  EXPECT_TRUE(rows[7].per_setup[0].applies);
+  EXPECT_FALSE(rows[7].per_setup[0].pass);
+  EXPECT_EQ(rows[3].per_setup[0].measured, "0.00 mm (n = 1)");  // lateral p95
+  EXPECT_EQ(rows[8].per_setup[0].measured, "0 of 0");
+}
+
 TEST(Timing, TheSlowestFrameIsTheLeastOfItsRunsAndOnlyCandidatesRunAgain)
 {
   // First runs; frame 1 was preempted (its reruns take 1.5 ms), frame 3 is really slow.
@@ -445,13 +525,39 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
   good.baseline_ms = 2.0;
   good.worst = {1.1, 7};
   good.worst_frame = "hard #7";
-  const sv::SetupResult all_good{{good, good}};  // main + negatives, hard
+  good.metrics.lateral_error_mm = {1.0, 4.0, 50, 50};
+  good.metrics.axis_angle_error_deg = {0.3, 0.9, 100, 100};
+  good.metrics.unsafe_aligned = {0, 900};
+  good.metrics.aligned_recall = {48, 50};
+  const sv::SetupResult all_good{{good, good, good}};  // main + negatives, hard, distorted
   r.setups = {all_good, all_good, all_good};
   auto reset = [&] { r.setups = {all_good, all_good, all_good}; };
   for (size_t s = 0; s < 3; ++s)
     EXPECT_TRUE(sv::barsPass(r, s)) << s;
   EXPECT_EQ(sv::headlineRows(r, 0).size(), 12u);
   EXPECT_EQ(sv::headlineRows(r, 1).size(), 12u);
+  EXPECT_EQ(sv::poseRows(r, 2).size(), 10u);
+
+  // Issue 10's pose bars: on the distorted set at 640x480 only.
+  r.setups[2].per_group[2].metrics.unsafe_aligned = {1, 900};
+  EXPECT_FALSE(sv::barsPass(r, 2));
+  r.setups[2].per_group[0].metrics.unsafe_aligned = {1, 900};  // main: reported only
+  r.setups[2].per_group[2].metrics.unsafe_aligned = {0, 900};
+  EXPECT_TRUE(sv::barsPass(r, 2));
+  r.setups[1].per_group[2].metrics.aligned_recall = {0, 50};  // 160x120: reported only
+  EXPECT_TRUE(sv::barsPass(r, 1));
+  r.setups[2].per_group[2].metrics.aligned_recall = {47, 50};
+  EXPECT_FALSE(sv::barsPass(r, 2));
+  reset();
+  r.setups[2].per_group[2].metrics.lateral_error_mm.p95 = 5.1;
+  EXPECT_FALSE(sv::barsPass(r, 2));
+  reset();
+  r.setups[2].per_group[2].metrics.axis_angle_error_deg = {sv::FrameScore::kNaN, sv::FrameScore::kNaN, 0, 100};
+  EXPECT_FALSE(sv::barsPass(r, 2));  // not measured is not a pass
+  const std::string pose = sv::poseTable(r);
+  EXPECT_NE(pose.find("n/a (not measured)"), std::string::npos) << pose;
+  EXPECT_NE(pose.find("distorted (C270 lens) set"), std::string::npos) << pose;
+  reset();
 
   // Distance and yaw bars are 640x480's only.
   r.setups[1].per_group[0].metrics.distance_error.median = 0.05;
@@ -583,6 +689,84 @@ TEST(LabelledSets, AreAFunctionOfTheSeedAndCoverTheWorkingRange)
   EXPECT_GT(right, 20);
 }
 
+TEST(LabelledSets, TheApproachRunsFrom110To50CmOfDepthAndEndsAligned)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(160, 120));
+  std::vector<sv::GroundTruth> truth;
+  for (int i = 0; i < 40; ++i)
+  {
+    sv::SceneParams scene;
+    sv::CameraPose pose;
+    sv::setFrame(sv::FrameSet::kApproach, 1, i, 40, scene, pose);
+    truth.push_back(renderer.groundTruth(scene, pose));
+  }
+  EXPECT_NEAR(truth.front().distance, 1.10, 0.005);  // the heading error tilts the first view a little
+  EXPECT_NEAR(truth.back().distance, 0.50, 1e-9);
+  EXPECT_FALSE(truth.front().aligned);
+  for (int i = 33; i < 40; ++i)  // inside 60 cm from frame 33 on
+    EXPECT_TRUE(truth[i].aligned) << i;
+  EXPECT_FALSE(truth[32].aligned);
+}
+
+TEST(LabelledSets, TheDistortedSetIsMainThroughAC270LensPlusNearAlignedPoses)
+{
+  const sv::CameraIntrinsics camera = sv::setCamera(sv::FrameSet::kDistorted, {640, 480});
+  EXPECT_TRUE(camera.distorted());
+  EXPECT_EQ(camera.distortion, sv::c270Distortion());
+  EXPECT_DOUBLE_EQ(camera.distortion[0], -0.2);
+  EXPECT_DOUBLE_EQ(camera.fx, 800.0);
+  EXPECT_NEAR(camera.cx, 319.5 - 6.4, 1e-12);
+  EXPECT_NEAR(camera.cy, 239.5 + 3.84, 1e-12);
+  EXPECT_FALSE(sv::setCamera(sv::FrameSet::kMain, {640, 480}).distorted());
+
+  const sv::SpoolRenderer renderer(sv::setCamera(sv::FrameSet::kDistorted, {160, 120}));
+  int near = 0;
+  int clears = 0;
+  int aligned = 0;
+  for (int i = 0; i < 60; ++i)
+  {
+    sv::SceneParams scene;
+    sv::CameraPose pose;
+    sv::setFrame(sv::FrameSet::kDistorted, 3, i, 60, scene, pose);
+    sv::SceneParams main_scene;
+    sv::CameraPose main_pose;
+    sv::setFrame(sv::FrameSet::kMain, 3, i, 60, main_scene, main_pose);
+    if (i % 3 != 2)
+    {
+      EXPECT_EQ(scene.seed, main_scene.seed) << i;  // main's frame
+      EXPECT_EQ(pose.distance, main_pose.distance) << i;
+      continue;
+    }
+    EXPECT_NE(scene.seed, main_scene.seed) << i;
+    const sv::GroundTruth truth = renderer.groundTruth(scene, pose);
+    ++near;
+    EXPECT_GE(truth.distance, 0.48);
+    EXPECT_LE(truth.distance, 0.62);
+    EXPECT_LT(truth.puller_miss, 0.005);
+    clears += truth.puller_clears ? 1 : 0;
+    aligned += truth.aligned ? 1 : 0;
+  }
+  EXPECT_EQ(near, 20);
+  EXPECT_GE(clears, 6);  // about 60%, and narrow misses
+  EXPECT_LE(clears, 17);
+  EXPECT_GE(aligned, 3);
+
+  // Deterministic: the same set renders the same frames.
+  const std::vector<sv::RenderedFrame> a = sv::renderSet(renderer, sv::FrameSet::kDistorted, 3, 4);
+  const std::vector<sv::RenderedFrame> b = sv::renderSet(renderer, sv::FrameSet::kDistorted, 3, 4);
+  ASSERT_EQ(a.size(), 4u);
+  for (size_t i = 0; i < a.size(); ++i)
+  {
+    EXPECT_EQ(cv::norm(a[i].image, b[i].image, cv::NORM_INF), 0.0) << i;
+    EXPECT_EQ(sv::groundTruthToJson(a[i].truth), sv::groundTruthToJson(b[i].truth)) << i;
+    EXPECT_EQ(a[i].truth.camera, renderer.camera());
+  }
+  // The lens changes the picture of main's frame 0.
+  const sv::RenderedFrame pinhole =
+      sv::renderSet(sv::SpoolRenderer(sv::setCamera(sv::FrameSet::kMain, {160, 120})), sv::FrameSet::kMain, 3, 1)[0];
+  EXPECT_GT(cv::norm(a[0].image, pinhole.image, cv::NORM_L1), 0.0);
+}
+
 // Loose bars for small samples: they catch a broken evaluation or a collapsed detector, not
 // the §7 bars (those are the report's; see scripts/eval.sh).
 TEST(Evaluation, SmallRenderedSetsMeetLooseBars)
@@ -611,24 +795,26 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   sv::EvaluationConfig small;
   // Two setups of one size share the renders; the second, without analyses, takes fewer frames.
   small.setups = {
-      {"seed.yaml @ 160x120", {160, 120}, config("seed.yaml"), sv::QualityBars::thesisReproduction(), {12, 6, 4}, true},
+      {"seed.yaml @ 160x120", {160, 120}, config("seed.yaml"), sv::QualityBars::thesisReproduction(), {12, 6, 4, 6}, true},
       {"default.yaml @ 160x120",
        {160, 120},
        config("default.yaml"),
        sv::QualityBars::forDefault({160, 120}),
-       {6, 3, 2},
+       {6, 3, 2, 3},
        false}};
   small.pose_repeats = 1;
   int progress_calls = 0;
   const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
   EXPECT_GT(progress_calls, 18);
   ASSERT_EQ(r.setups.size(), 2u);
-  ASSERT_EQ(r.setups[0].per_group.size(), 2u);  // main + negatives, hard
+  ASSERT_EQ(r.setups[0].per_group.size(), 3u);  // main + negatives, hard, distorted
   EXPECT_EQ(r.setups[0].per_group[0].frames, 18);
   EXPECT_EQ(r.setups[0].per_group[0].metrics.time_ms.count, 18);
   EXPECT_EQ(r.setups[0].per_group[1].frames, 4);
+  EXPECT_EQ(r.setups[0].per_group[2].frames, 6);
   EXPECT_EQ(r.setups[1].per_group[0].frames, 9);
   EXPECT_EQ(r.setups[1].per_group[1].frames, 2);
+  EXPECT_EQ(r.setups[1].per_group[2].frames, 3);
   for (const sv::SetupResult& setup : r.setups)
     for (const sv::GroupResult& group : setup.per_group)
     {
@@ -647,7 +833,7 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   EXPECT_EQ(r.yaw_sweep.size(), 27u);
   EXPECT_EQ(r.tx_sweep.size(), 18u);
   EXPECT_NEAR(r.yaw_sweep.front().yaw, -20.0 * M_PI / 180.0, 1e-3);
-  EXPECT_NEAR(r.distance_sweep.back().distance, 1.1, 1e-9);
+  EXPECT_NEAR(r.distance_sweep.back().distance, std::sqrt(1.1 * 1.1 - 0.06 * 0.06), 1e-9);  // depth at 1.1 m range
 
   // The variant that is the configuration itself gives the configuration's numbers.
   const sv::Metrics& as_loaded = r.setups[0].per_group[0].metrics;
@@ -661,7 +847,8 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   std::ifstream in(dir / "report.md");
   std::stringstream md;
   md << in.rdbuf();
-  for (const char* heading : {"## Headline", "hard set", "### Filter", "### Binarization", "### Morphology",
+  for (const char* heading : {"## Headline", "hard set", "## Pose and alignment", "distorted (C270 lens) set",
+                              "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization", "### Morphology",
                               "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r"})
     EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
   for (const char* png : {"filters", "binarization", "morphology", "cht_mcht", "lamps", "distance", "yaw", "tx_r"})

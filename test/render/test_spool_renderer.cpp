@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -164,7 +165,8 @@ TEST(SpoolRenderer, EllipseTruthMatchesProjectedRim)
   EXPECT_NEAR(gt.flange->y, 0.5 * (v_max + v_min), 0.05);  // the centre lies mid-extent
   const cv::Vec3d c = cv::Vec3d(0.0, 1.0, 0.0) - eye;
   EXPECT_NEAR(gt.flange->centre_x, k.fx * c.dot(right) / c.dot(fwd) + k.cx, 1e-9);
-  EXPECT_NEAR(gt.distance, 0.7, 1e-12);
+  EXPECT_NEAR(gt.distance, c.dot(fwd), 1e-12);
+  EXPECT_NEAR(gt.range, 0.7, 1e-12);
   // Under yaw the ellipse centre is displaced from the projected 3D centre (towards the
   // nearer side); the hole, being small, barely moves.
   EXPECT_GT(std::abs(gt.flange->x - gt.flange->centre_x), 2.0);
@@ -272,24 +274,170 @@ TEST(SpoolRenderer, YawDistanceAndAlignmentTruth)
   const double depth = std::sqrt(0.81 - 0.0036 - 0.01);
   EXPECT_NEAR(right.yaw, std::atan(-0.1 / depth), 1e-12);
   EXPECT_LT(right.yaw, 0.0);
-  EXPECT_NEAR(right.lateral_offset, 0.9 * std::tan(right.yaw), 1e-12);
+  EXPECT_NEAR(right.distance, depth, 1e-12);
+  EXPECT_NEAR(right.range, 0.9, 1e-12);
+  EXPECT_NEAR(right.lateral_offset, -0.1, 1e-12);  // = depth * tan(yaw), Eq. 3.8
   EXPECT_NEAR(right.reference.y, k.cy + k.fy * 0.06 / depth, 1e-9);
   EXPECT_NEAR(right.flange->r_vertical, k.fy * 0.175 / depth, 1e-6);
   EXPECT_NEAR(right.puller_miss, 0.1, 1e-12);
+  EXPECT_FALSE(right.puller_clears);
   EXPECT_FALSE(right.aligned);
 
   const sv::GroundTruth aligned = renderer.groundTruth(scene, pose(0.55));
+  EXPECT_TRUE(aligned.puller_clears);
   EXPECT_TRUE(aligned.aligned);
   EXPECT_NEAR(aligned.puller_miss, 0.0, 1e-12);
   EXPECT_NEAR(aligned.yaw, 0.0, 1e-12);
   EXPECT_NEAR(aligned.hole->centre_y, aligned.reference.y, 1e-9);
 
-  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.7)).aligned);                    // too far
+  const sv::GroundTruth far = renderer.groundTruth(scene, pose(0.7));
+  EXPECT_TRUE(far.puller_clears);
+  EXPECT_FALSE(far.aligned);                                                       // too far
   EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.004)).aligned);            // misses by 4 mm
   EXPECT_TRUE(renderer.groundTruth(scene, pose(0.55, 0.002)).aligned);             // within t_f
-  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.5 * kDeg)).aligned);  // askew
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.5 * kDeg)).aligned);  // askew: 4.8 mm off at the face
 
   EXPECT_THROW(renderer.groundTruth(scene, pose(0.05, 0.1)), std::invalid_argument);
+}
+
+TEST(SpoolRenderer, DepthRangeAndAxisOnAYawedOffsetPose)
+{
+  // Camera 10 cm right of the axis, 6 cm above, turned 10 deg right: by hand, the face centre
+  // seen from the camera is w = (-0.1, -0.06, planar) in the world (x right, y up, z into the
+  // shelf); the camera's right is (cos a, 0, -sin a), down (0, -1, 0), forward (sin a, 0, cos a).
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const double a = 10.0 * kDeg;
+  const sv::GroundTruth gt = renderer.groundTruth(cleanScene(), pose(0.8, 0.1, a));
+  const double planar = std::sqrt(0.64 - 0.0036 - 0.01);
+  const double x = -0.1 * std::cos(a) - planar * std::sin(a);
+  const double z = -0.1 * std::sin(a) + planar * std::cos(a);
+  EXPECT_NEAR(gt.position.x, x, 1e-12);
+  EXPECT_NEAR(gt.position.y, 0.06, 1e-12);
+  EXPECT_NEAR(gt.position.z, z, 1e-12);
+  EXPECT_NEAR(gt.distance, z, 1e-12);  // depth, about 0.8% short of the range here
+  EXPECT_NEAR(gt.range, 0.8, 1e-12);
+  EXPECT_GT(gt.range - gt.distance, 0.005);
+  EXPECT_NEAR(gt.lateral_offset, x, 1e-12);
+  EXPECT_NEAR(gt.yaw, std::atan(x / z), 1e-12);
+  // The spool axis (world +z) in the camera frame, and its angles.
+  EXPECT_NEAR(gt.axis[0], -std::sin(a), 1e-12);
+  EXPECT_NEAR(gt.axis[1], 0.0, 1e-12);
+  EXPECT_NEAR(gt.axis[2], std::cos(a), 1e-12);
+  EXPECT_NEAR(gt.axis_angle, a, 1e-12);
+  EXPECT_NEAR(gt.axis_yaw, -a, 1e-12);
+  // The puller axis, through (0, 0.06, 0) along z, meets the face plane (world z = 0) at
+  // x = 0.1 + planar tan(a) in the world.
+  EXPECT_NEAR(gt.puller_miss, 0.1 + planar * std::tan(a), 1e-9);
+
+  const std::string json = sv::groundTruthToJson(gt);
+  for (const char* key : {"\"range\": ", "\"position\": {\"x\": ", "\"axis\": {\"x\": ", "\"axis_yaw\": ",
+                          "\"puller_clears\": false", "\"distortion\": []"})
+    EXPECT_NE(json.find(key), std::string::npos) << key << " in " << json;
+}
+
+TEST(SpoolRenderer, ThePullerClearsOnlyWithinTheClearanceAtBothEndsOfTheBore)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const sv::SceneParams scene = cleanScene();  // bore 20 cm, t_f = 2.5 mm
+  // Heading `a` with the puller axis through the face centre: it misses the bore axis by
+  // bore_length tan(a) at the back end (0.2 tan(0.5 deg) = 1.7 mm, 0.2 tan(1 deg) = 3.5 mm).
+  auto throughTheFaceCentre = [&](double a)
+  {
+    const double planar = 0.55;
+    const double lateral = -planar * std::tan(a);
+    return renderer.groundTruth(scene,
+                                pose(std::sqrt(planar * planar + 0.06 * 0.06 + lateral * lateral), lateral, a));
+  };
+  const sv::GroundTruth half_degree = throughTheFaceCentre(0.5 * kDeg);
+  EXPECT_NEAR(half_degree.puller_miss, 0.0, 1e-12);
+  EXPECT_TRUE(half_degree.puller_clears);
+  EXPECT_TRUE(half_degree.aligned);
+  const sv::GroundTruth one_degree = throughTheFaceCentre(1.0 * kDeg);
+  EXPECT_NEAR(one_degree.puller_miss, 0.0, 1e-12);
+  EXPECT_NEAR(one_degree.axis_angle, 1.0 * kDeg, 1e-12);
+  EXPECT_FALSE(one_degree.puller_clears);
+  EXPECT_FALSE(one_degree.aligned);
+
+  // Parallel axes: the lateral or vertical miss alone decides.
+  EXPECT_TRUE(renderer.groundTruth(scene, pose(0.55, 0.0024)).puller_clears);
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0026)).puller_clears);
+  EXPECT_TRUE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.0, 0.0, 0.0624)).puller_clears);
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.0, 0.0, 0.0626)).puller_clears);
+  // A wider bore gives more room.
+  sv::SceneParams wide = scene;
+  wide.hole_diameter = 0.04;
+  EXPECT_TRUE(renderer.groundTruth(wide, pose(0.55, 0.0044)).puller_clears);
+
+  // aligned: puller_clears in the insertion window, 0.5-0.6 m of depth (not range).
+  EXPECT_TRUE(renderer.groundTruth(scene, pose(std::hypot(0.599, 0.06))).aligned);
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(std::hypot(0.601, 0.06))).aligned);
+  EXPECT_FALSE(renderer.groundTruth(scene, pose(std::hypot(0.499, 0.06))).aligned);
+}
+
+namespace
+{
+// A C270-like lens on a 640x480 camera (plumb_bob), principal point off centre.
+sv::CameraIntrinsics c270()
+{
+  sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(640, 480);
+  k.cx = 313.1;
+  k.cy = 243.3;
+  k.distortion = {-0.2, 0.05, 0.001, -0.0005, 0.0};
+  return k;
+}
+}  // namespace
+
+TEST(SpoolRenderer, DistortedTruthIsWhereTheLensPutsIt)
+{
+  // The camera on the spool axis, turned so that the spool lies near the top-left corner, where
+  // the lens moves it by several pixels: the bore is seen end-on, a lit disc in the black face.
+  const sv::CameraIntrinsics k = c270();
+  sv::CameraIntrinsics pinhole = k;
+  pinhole.distortion.clear();
+  const sv::CameraPose p = pose(0.7, 0.0, 15 * kDeg, -10 * kDeg, 0.0);
+  const sv::RenderedFrame frame = sv::SpoolRenderer(k).render(cleanScene(), p);
+  const sv::GroundTruth undistorted = sv::SpoolRenderer(pinhole).groundTruth(cleanScene(), p);
+  const sv::ProjectedCircle& hole = *frame.truth.hole;
+  ASSERT_TRUE(frame.truth.bore_visible);
+  EXPECT_GT(std::hypot(hole.x - undistorted.hole->x, hole.y - undistorted.hole->y), 4.0);
+  // Sizes are those of the undistorted projection; the 3D truth does not depend on the lens.
+  EXPECT_DOUBLE_EQ(hole.r, undistorted.hole->r);
+  EXPECT_DOUBLE_EQ(frame.truth.distance, undistorted.distance);
+
+  // The truth centre undistorted is the pinhole projection of the 3D centre.
+  std::vector<cv::Point2d> undistorted_centre;
+  cv::undistortPoints(std::vector<cv::Point2d>{{hole.centre_x, hole.centre_y}}, undistorted_centre,
+                      cv::Matx33d(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1), k.distortion, cv::noArray(),
+                      cv::Matx33d(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1),
+                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 100, 1e-12));
+  EXPECT_NEAR(undistorted_centre[0].x, undistorted.hole->centre_x, 1e-6);
+  EXPECT_NEAR(undistorted_centre[0].y, undistorted.hole->centre_y, 1e-6);
+
+  // The lit disc's centroid in the rendered image (pixels weighted by how far they are from the
+  // face's black towards the wall's grey, so edge pixels count by their coverage).
+  const cv::Mat img = grey(frame.image);
+  const double face = bilinear(img, hole.x + 2.5 * hole.r, hole.y);
+  const double wall = bilinear(img, hole.x, hole.y);
+  double sum = 0.0;
+  cv::Point2d centroid(0.0, 0.0);
+  for (int v = static_cast<int>(hole.y - 2 * hole.r); v <= hole.y + 2 * hole.r; ++v)
+    for (int u = static_cast<int>(hole.x - 2 * hole.r); u <= hole.x + 2 * hole.r; ++u)
+    {
+      const double w = std::clamp((img.at<float>(v, u) - face) / (wall - face), 0.0, 1.0);
+      sum += w;
+      centroid += w * cv::Point2d(u, v);
+    }
+  centroid /= sum;
+  EXPECT_NEAR(centroid.x, hole.x, 0.15);
+  EXPECT_NEAR(centroid.y, hole.y, 0.15);
+
+  // Barrel distortion pulls a rim cut by the image border back into view.
+  const sv::CameraPose edge = pose(0.8, -0.35);
+  const double seen = sv::SpoolRenderer(k).groundTruth(cleanScene(), edge).flange->visible_fraction;
+  const double seen_pinhole = sv::SpoolRenderer(pinhole).groundTruth(cleanScene(), edge).flange->visible_fraction;
+  EXPECT_GT(seen, seen_pinhole + 0.02);  // 0.40 vs 0.36
+  EXPECT_NE(sv::groundTruthToJson(frame.truth).find("\"distortion\": [-0.2, 0.05, 0.001, -0.0005, 0]"),
+            std::string::npos);
 }
 
 TEST(SpoolRenderer, DeterministicFromSeed)
@@ -359,7 +507,7 @@ TEST(SpoolRenderer, ObjectsAndNeighboursAppear)
   EXPECT_NEAR(gt.neighbours[0].flange.centre_x, k.cx - k.fx * 0.37 / depth, 1e-6);
   EXPECT_NEAR(gt.neighbours[1].flange.centre_x, k.cx + k.fx * 0.40 / (depth + 0.01), 1e-6);
   EXPECT_NEAR(gt.neighbours[0].yaw, std::atan(-0.37 / depth), 1e-9);
-  EXPECT_NEAR(gt.neighbours[1].distance, std::sqrt(0.4 * 0.4 + 0.06 * 0.06 + std::pow(depth + 0.01, 2)), 1e-9);
+  EXPECT_NEAR(gt.neighbours[1].distance, depth + 0.01, 1e-9);  // depth, set back 1 cm
   EXPECT_TRUE(gt.spool_centre_in_view);
 }
 

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -197,6 +198,28 @@ TEST(SpoolRenderCli, WritesFramesTruthAndCameraInfo)
   EXPECT_DOUBLE_EQ(camera.fx, 200.0 * 48 / 120.0);  // the thesis camera without --focal
 }
 
+TEST(SpoolRenderCli, DistortedSetAndLensOption)
+{
+  const fs::path root = freshDir("render_cli_lens");
+  // The distorted set's lens by default; --distortion replaces it, for any set.
+  const CliRun set = spoolRender("--out " + (root / "set").string() + " --width 64 --height 48 --count 1 --set distorted");
+  ASSERT_EQ(set.exit_code, 0) << set.errors;
+  const CliRun lens = spoolRender("--out " + (root / "lens").string() +
+                                  " --width 64 --height 48 --count 1 --distortion -0.1,0.02,0,0,0,0.01,0,0");
+  ASSERT_EQ(lens.exit_code, 0) << lens.errors;
+  auto json = [](const fs::path& path)
+  {
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  EXPECT_TRUE(has(json(root / "set" / "frame_00000.json"), "\"distortion\": [-0.2, 0.05, 0.001, -0.0005, 0]"));
+  EXPECT_TRUE(has(json(root / "set" / "frame_00000.json"), "\"set\": \"distorted\""));
+  EXPECT_TRUE(has(json(root / "lens" / "frame_00000.json"), "\"distortion\": [-0.1, 0.02, 0, 0, 0, 0.01, 0, 0]"));
+  EXPECT_TRUE(fs::exists(root / "lens" / "frame_00000.png"));
+}
+
 TEST(SpoolRenderCli, BadOptionsExitTwoNamingTheOption)
 {
   const std::string out = "--out " + ::testing::TempDir() + "render_bad";
@@ -210,7 +233,10 @@ TEST(SpoolRenderCli, BadOptionsExitTwoNamingTheOption)
       {"--width 64 --height 48", "--out is required"},
       {out + " --width 0 --height 48", "--width: expected a positive number, got '0'"},
       {out + " --width 64 --height 48 --count 1.5", "--count: expected an integer in [1, 1000000], got '1.5'"},
-      {out + " --width 64 --height 48 --set all", "--set: expected main, approach, negatives or hard, got 'all'"},
+      {out + " --width 64 --height 48 --set all",
+       "--set: expected main, approach, negatives, hard or distorted, got 'all'"},
+      {out + " --width 64 --height 48 --distortion -0.2,0.05,0", "--distortion: expected 4, 5 (plumb_bob) or 8"},
+      {out + " --width 64 --height 48 --distortion -0.2,x,0,0", "--distortion: 'x' is not a number"},
       {out + " --width 64 --height 48 --seed -1", "--seed: expected a non-negative integer, got '-1'"},
       {out + " --width 16 --height 48", "--width/--height: at least 32 px"},
   };
