@@ -126,6 +126,9 @@ struct GeometryParams
   double aligned_max_yaw = 0.004363323129985824;  ///< rad (0.25 deg)
   double aligned_distance_min = 0.5;              ///< m
   double aligned_distance_max = 0.6;              ///< m
+  /// m, taken off t_f for `aligned`: the puller's measured miss must clear the bore by this much
+  /// (at 50-60 cm the miss is measured within ~0.1 mm, and a frame on the edge must not pass)
+  double aligned_margin = 0.0001;
 };
 
 struct DetectorParams

@@ -82,9 +82,9 @@ public:
   /// Fills depth (distance), range, position, axis, yaw, reference, lateral offset, overlap and
   /// alignment of `detection` from its flange and (if hole_detected) hole. With a hole the pose
   /// is fitRimPose()'s on `rim` (rimPose()'s where that fails or `rim` is empty); without one the
-  /// flange centre and Eq. 3.2 give the position and the axis is NaN. Aligned: overlapped (Rule 3), depth in the
+  /// flange centre and Eq. 3.2 give the position and the axis is NaN. Aligned: a hole rim, depth in the
   /// insertion window, |yaw| <= aligned_max_yaw and pullerMiss() within t_f at both ends of the bore (Eq. 3.8, taken
-  /// along the bore).
+  /// along the bore); Rule 3 (overlapped) is reported but not required.
   void measure(SpoolDetection& detection, const std::vector<cv::Point2f>& rim = {}) const;
 
 private:

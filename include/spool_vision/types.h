@@ -128,7 +128,7 @@ struct SpoolDetection
   bool detected = false;       ///< flange found
   bool hole_detected = false;  ///< a hole that passed the matcher
   bool overlapped = false;     ///< flange and hole centres on the reference point (Rule 3)
-  /// Safe to insert: overlapped, in the insertion window, |yaw| small, and the puller's axis
+  /// Safe to insert: a hole rim, in the insertion window, |yaw| small, and the puller's axis
   /// within tolerance of the bore's axis at the bore's front and back ends (SpoolGeometry::measure)
   bool aligned = false;
   /// m, depth: z of the bore's front centre in the camera optical frame (thesis Eq. 3.2)

@@ -171,6 +171,8 @@ std::vector<ParamSpec> buildSpecs()
       number("aligned_distance_min", FIELD(geometry.aligned_distance_min), 0.0, 20.0, "m",
              "insertion window, near end"),
       number("aligned_distance_max", FIELD(geometry.aligned_distance_max), 0.0, 20.0, "m", "insertion window, far end"),
+      number("aligned_margin", FIELD(geometry.aligned_margin), 0.0, 0.01, "m",
+             "aligned needs the puller's miss at both bore ends within t_f minus this (measurement error)"),
   };
 }
 #undef FIELD

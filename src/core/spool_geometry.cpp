@@ -255,9 +255,12 @@ void SpoolGeometry::measure(SpoolDetection& d, const std::vector<cv::Point2f>& r
   double front_miss = SpoolDetection::kNaN;
   double back_miss = SpoolDetection::kNaN;
   pullerMiss(d.position, d.axis, front_miss, back_miss);
-  // NaN (no axis) compares false: no alignment without the spool's axis.
-  d.aligned = d.overlapped && std::abs(d.yaw) <= params_.aligned_max_yaw && front_miss <= d.tolerance &&
-              back_miss <= d.tolerance && d.distance >= params_.aligned_distance_min &&
+  // Rule 3 (overlapped) is the thesis' pixel test, reported on its own; alignment is the physical
+  // one (3 px at 640x480 is 2 mm at 55 cm, stricter than the 2.5 mm clearance, and a turned rim's
+  // ellipse centre is off the axis). NaN (no hole rim, no axis) compares false.
+  const double clearance = d.tolerance - params_.aligned_margin;
+  d.aligned = d.hole_detected && std::abs(d.yaw) <= params_.aligned_max_yaw && front_miss <= clearance &&
+              back_miss <= clearance && d.distance >= params_.aligned_distance_min &&
               d.distance <= params_.aligned_distance_max;
 }
 
