@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The ROS demo: installs and builds, starts its own roscore, replays the demo approach bag
-# (110 -> 50 cm, ending aligned) through the spool_detector node, prints the SpoolPose stream
+# (110 -> 51 cm deep, ending aligned) through the spool_detector node, prints the SpoolPose stream
 # as `rostopic echo` does and a one-line summary, then stops everything it started.
 #   scripts/demo.sh [BAG]   default: the bundled test/data/demo_approach.bag, or one rendered
 #                           into the build workspace when that is missing

@@ -25,7 +25,7 @@ namespace spool_vision
 enum class FrameSet
 {
   kMain,       ///< spools at 50-110 cm and +-20 deg bearing, about 15% negatives mixed in
-  kApproach,   ///< one spool from 110 cm to 50 cm, ending aligned
+  kApproach,   ///< one spool from 110 cm to 51 cm deep, ending aligned
   kNegatives,  ///< empty slots, plates, tape rolls and cans (neighbour spools may stand beside)
   kHard,       ///< main's poses plus camera heights 0-8 cm, with real-webcam effects (hardScene)
   /// Through a C270-like lens (setCamera): main's frames, and every third frame a pose near the
@@ -183,9 +183,9 @@ struct Metrics
   // Where the flange-eligible frames went wrong.
   int missed = 0;
   int on_other_spool = 0;
-  int bogus = 0;                ///< a flange on no spool at all
-  Spread distance_error;        ///< |relative| depth error, correct detections on flange-eligible frames
-  Spread yaw_error_deg;         ///< |deg|, same frames
+  int bogus = 0;          ///< a flange on no spool at all
+  Spread distance_error;  ///< |relative| depth error, correct detections on flange-eligible frames
+  Spread yaw_error_deg;   ///< |deg|, same frames
   /// |mm|, same frames on the slot's spool at kInsertionDepthMin-kInsertionDepthMax of depth
   Spread lateral_error_mm;
   Spread axis_angle_error_deg;  ///< |deg|, same frames on the slot's spool
