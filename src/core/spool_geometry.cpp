@@ -31,6 +31,14 @@ bool rimImage(const Eigen::Vector3d& c, const Eigen::Vector3d& n, double r, Eige
   out = {centre.x(), centre.y(), std::sqrt(k * a(0, 0) / det)};
   return true;
 }
+// The rim fits' unknowns p = (depth along `ray`, the normal's slopes a, b) as a pose.
+void toPose(const Eigen::Vector3d& ray, const Eigen::Vector3d& p, cv::Point3d& position, cv::Vec3d& axis)
+{
+  const Eigen::Vector3d c = p.x() * ray;
+  const Eigen::Vector3d n = Eigen::Vector3d(p.y(), p.z(), 1.0).normalized();
+  position = {c.x(), c.y(), c.z()};
+  axis = {n.x(), n.y(), n.z()};
+}
 }  // namespace
 
 SpoolGeometry::SpoolGeometry(const GeometryParams& params, const CameraIntrinsics& camera)
@@ -90,10 +98,7 @@ bool SpoolGeometry::rimPose(const Circle& flange, const cv::Point2d& centre, cv:
     if (step.cwiseAbs().maxCoeff() < 1e-9)
       break;
   }
-  const Eigen::Vector3d c = p.x() * ray;
-  const Eigen::Vector3d n = Eigen::Vector3d(p.y(), p.z(), 1.0).normalized();
-  position = {c.x(), c.y(), c.z()};
-  axis = {n.x(), n.y(), n.z()};
+  toPose(ray, p, position, axis);
   return true;
 }
 
@@ -156,10 +161,7 @@ bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Po
     if (std::abs(step.x()) < 1e-7 * p.x() && step.tail<2>().cwiseAbs().maxCoeff() < 1e-7)
       break;
   }
-  const Eigen::Vector3d c = p.x() * ray;
-  const Eigen::Vector3d n = Eigen::Vector3d(p.y(), p.z(), 1.0).normalized();
-  position = {c.x(), c.y(), c.z()};
-  axis = {n.x(), n.y(), n.z()};
+  toPose(ray, p, position, axis);
   return true;
 }
 

@@ -42,24 +42,32 @@ std::string CommandLine::text(const std::string& key, const std::string& fallbac
   return it == options_.end() ? fallback : it->second;
 }
 
+std::optional<double> parseNumber(const std::string& text)
+{
+  std::size_t used = 0;
+  double number = 0.0;
+  try
+  {
+    number = std::stod(text, &used);
+  }
+  catch (const std::exception&)
+  {
+    return std::nullopt;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(number))
+    return std::nullopt;
+  return number;
+}
+
 double CommandLine::positiveNumber(const std::string& key, double fallback) const
 {
   if (!options_.count(key))
     return fallback;
   const std::string value = options_.at(key);
-  std::size_t used = 0;
-  double number = 0.0;
-  try
-  {
-    number = std::stod(value, &used);
-  }
-  catch (const std::exception&)
-  {
-    used = 0;
-  }
-  if (used != value.size() || !std::isfinite(number) || number <= 0.0)
+  const std::optional<double> number = parseNumber(value);
+  if (!number || *number <= 0.0)
     throw UsageError(key + ": expected a positive number, got '" + value + "'");
-  return number;
+  return *number;
 }
 
 int CommandLine::positiveInteger(const std::string& key, int max_value, int fallback) const

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -31,6 +32,9 @@ public:
 private:
   bool show_usage_;
 };
+
+/// The whole of `text` as a finite number (std::stod), or nullopt.
+std::optional<double> parseNumber(const std::string& text);
 
 /// argv split into `--key value` options and positional arguments.
 class CommandLine

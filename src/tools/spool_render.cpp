@@ -64,19 +64,10 @@ std::vector<double> parseDistortion(const std::string& text)
   std::string item;
   while (std::getline(list, item, ','))
   {
-    std::size_t used = 0;
-    double value = 0.0;
-    try
-    {
-      value = std::stod(item, &used);
-    }
-    catch (const std::exception&)
-    {
-      used = 0;
-    }
-    if (used == 0 || used != item.size() || !std::isfinite(value))
+    const std::optional<double> value = sv::cli::parseNumber(item);
+    if (!value)
       throw sv::cli::UsageError("--distortion: '" + item + "' is not a number");
-    d.push_back(value);
+    d.push_back(*value);
   }
   if (d.size() != 4 && d.size() != 5 && d.size() != 8)
     throw sv::cli::UsageError("--distortion: expected 4, 5 (plumb_bob) or 8 (rational_polynomial) numbers, got " +
