@@ -132,9 +132,9 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {"image_transport", "queue_size",        "min_rate",
-                                             "max_rate",        "diagnostic_period", "use_camera_info",
-                                             "publish_tf",      "spool_frame",       "rectified"};
+  static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
+                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame",
+                                             "rectified"};
   return keys;
 }
 
@@ -199,22 +199,27 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   debug_pub_ = private_it_.advertise("debug_image", 1);
   if (publish_tf)
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-  const std::string inputs =
-      compressed ? subscribeCompressed(base + kCompressedSuffix, image_transport::getCameraInfoTopic(base), queue_size,
-                                       use_camera_info)
-                 : subscribeImages(transport, queue_size, use_camera_info);
+  // camera_info beside the image topic, as image_transport names it.
+  if (use_camera_info)
+    info_topic_ = image_transport::getCameraInfoTopic(base);
+  else
+    camera_problem_ = "use_camera_info is false";
+  const std::string inputs = (compressed ? subscribeCompressed(base + kCompressedSuffix, queue_size)
+                                         : subscribeImages(transport, queue_size)) +
+                             (use_camera_info ? " with " + info_topic_ : ", no camera_info");
   if (use_camera_info)
     camera_info_check_timer_ = nh_.createWallTimer(ros::WallDuration(kCameraInfoCheckPeriod),
                                                    [this](const ros::WallTimerEvent&) { checkCameraInfoPublished(); });
-  else
-    camera_problem_ = "use_camera_info is false";
   const std::string tf = publish_tf ? " and TF frame " + spool_frame_ : "";
   ROS_INFO("spool_detector: listening on %s, publishing %s, %s and %s%s", inputs.c_str(), pose_pub_.getTopic().c_str(),
            pose_stamped_pub_.getTopic().c_str(), marker_pub_.getTopic().c_str(), tf.c_str());
 }
 
-std::string SpoolDetectorRos::subscribeImages(const std::string& transport, int queue_size, bool use_camera_info)
+std::string SpoolDetectorRos::subscribeImages(const std::string& transport, int queue_size)
 {
+  // The pairing exists before the first image can come (a nodelet's queue runs during onInit).
+  if (!info_topic_.empty())
+    subscribeInfo(queue_size, image_pairing_, &SpoolDetectorRos::imageCallback);
   try
   {
     // Hints read ~image_transport (already checked above) rather than a global parameter.
@@ -235,18 +240,13 @@ std::string SpoolDetectorRos::subscribeImages(const std::string& transport, int 
     throw ParamError("image_transport", "transport '" + transport + "' cannot be loaded (" + e.what() + ")");
   }
   image_topic_ = image_sub_.getTopic();
-  const std::string inputs = image_topic_ + " (" + image_sub_.getTransport() + ")";
-  if (!use_camera_info)
-    return inputs + ", no camera_info";
-  // camera_info beside the image topic, as image_transport names it.
-  info_topic_ = image_transport::getCameraInfoTopic(image_topic_);
-  subscribeInfo(queue_size, image_pairing_, &SpoolDetectorRos::imageCallback);
-  return inputs + " with " + info_topic_;
+  return image_topic_ + " (" + image_sub_.getTransport() + ")";
 }
 
-std::string SpoolDetectorRos::subscribeCompressed(const std::string& topic, const std::string& info_topic,
-                                                  int queue_size, bool use_camera_info)
+std::string SpoolDetectorRos::subscribeCompressed(const std::string& topic, int queue_size)
 {
+  if (!info_topic_.empty())
+    subscribeInfo(queue_size, compressed_pairing_, &SpoolDetectorRos::compressedCallback);
   image_topic_ = topic;
   compressed_sub_ = nh_.subscribe<sensor_msgs::CompressedImage>(topic, queue_size,
                                                                 [this](const sensor_msgs::CompressedImageConstPtr& msg)
@@ -256,12 +256,7 @@ std::string SpoolDetectorRos::subscribeCompressed(const std::string& topic, cons
                                                                   else
                                                                     compressedCallback(msg, nullptr);
                                                                 });
-  const std::string inputs = topic + " (sensor_msgs/CompressedImage)";
-  if (!use_camera_info)
-    return inputs + ", no camera_info";
-  info_topic_ = info_topic;
-  subscribeInfo(queue_size, compressed_pairing_, &SpoolDetectorRos::compressedCallback);
-  return inputs + " with " + info_topic_;
+  return topic + " (sensor_msgs/CompressedImage)";
 }
 
 template <typename Image>

@@ -42,14 +42,14 @@ public:
   static const std::set<std::string>& rosKeys();
 
 private:
-  /// Subscribes `image` through image_transport (raw and any installed plugin), alone or paired
-  /// with its camera_info; returns the inputs for the start-up line.
-  std::string subscribeImages(const std::string& transport, int queue_size, bool use_camera_info);
-  /// Subscribes sensor_msgs/CompressedImage on `topic` directly (Debian has no compressed
-  /// plugin), alone or paired with `info_topic`.
-  std::string subscribeCompressed(const std::string& topic, const std::string& info_topic, int queue_size,
-                                  bool use_camera_info);
-  /// With use_camera_info: camera_info on `info_topic_`, each paired with its image's stamp.
+  /// Subscribes `image` through image_transport (raw and any installed plugin), paired with
+  /// camera_info on info_topic_ unless that is empty (use_camera_info false); returns the input
+  /// for the start-up line.
+  std::string subscribeImages(const std::string& transport, int queue_size);
+  /// The same for sensor_msgs/CompressedImage on `topic`, subscribed directly (Debian has no
+  /// compressed plugin).
+  std::string subscribeCompressed(const std::string& topic, int queue_size);
+  /// camera_info on info_topic_, each paired with the image of its stamp.
   template <typename Image>
   void subscribeInfo(int queue_size, std::unique_ptr<StampPairing<Image>>& pairing,
                      void (SpoolDetectorRos::*callback)(const boost::shared_ptr<const Image>&,
