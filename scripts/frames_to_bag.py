@@ -4,7 +4,9 @@
 The folder holds frame_%05d.png (as spool_render writes them) and camera_info.yaml (ROS
 camera-calibration format). Frame i is stamped start + i / rate; its camera_info carries the
 same header and is stored a microsecond earlier, so that `rosbag play` publishes the
-calibration before the image it belongs to.
+calibration before the image it belongs to. With --format jpeg or png the frames are stored as
+sensor_msgs/CompressedImage on IMAGE_TOPIC/compressed (image_transport's naming), as
+compressed_image_transport writes them.
 """
 import argparse
 import glob
@@ -15,7 +17,7 @@ import cv2
 import rosbag
 import rospy
 import yaml
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image
 
 
 def load_camera_info(path):
@@ -45,6 +47,20 @@ def to_image_msg(pixels, encoding):
     return msg
 
 
+def to_compressed_msg(pixels, encoding, image_format, quality):
+    # compressed_image_transport's format string: "<encoding>; <jpeg|png> compressed <encoding>".
+    if encoding == "rgb8":
+        pixels = cv2.cvtColor(pixels, cv2.COLOR_RGB2BGR)  # the codecs take BGR
+    params = [cv2.IMWRITE_JPEG_QUALITY, quality] if image_format == "jpeg" else []
+    ok, data = cv2.imencode("." + image_format, pixels, params)
+    if not ok:
+        raise IOError("cannot encode a frame as " + image_format)
+    msg = CompressedImage()
+    msg.format = "%s; %s compressed %s" % (encoding, image_format, encoding)
+    msg.data = data.tobytes()
+    return msg
+
+
 def read_frame(path, encoding):
     if encoding == "mono8":
         pixels = cv2.imread(path, cv2.IMREAD_GRAYSCALE)
@@ -70,6 +86,10 @@ def main():
     parser.add_argument("--camera-info", help="calibration YAML (default FRAMES/camera_info.yaml)")
     parser.add_argument("--encoding", choices=["mono8", "bgr8", "rgb8"], default="bgr8")
     parser.add_argument("--compression", choices=["none", "bz2", "lz4"], default="lz4")
+    parser.add_argument("--format", choices=["raw", "jpeg", "png"], default="raw",
+                        help="raw: sensor_msgs/Image on IMAGE_TOPIC; jpeg, png: CompressedImage on "
+                             "IMAGE_TOPIC/compressed")
+    parser.add_argument("--quality", type=int, default=90, help="JPEG quality (default 90)")
     args = parser.parse_args()
 
     if args.rate <= 0:
@@ -82,19 +102,25 @@ def main():
         parser.error("no camera calibration at " + info_path)
     info = load_camera_info(info_path)
 
+    image_topic = args.image_topic if args.format == "raw" else args.image_topic + "/compressed"
     with rosbag.Bag(args.bag, "w", compression=args.compression) as bag:
         for i, path in enumerate(frames):
-            image = to_image_msg(read_frame(path, args.encoding), args.encoding)
-            if (image.width, image.height) != (info.width, info.height):
+            pixels = read_frame(path, args.encoding)
+            height, width = pixels.shape[:2]
+            if (width, height) != (info.width, info.height):
                 sys.exit("%s is %dx%d but the calibration is for %dx%d" % (
-                    path, image.width, image.height, info.width, info.height))
+                    path, width, height, info.width, info.height))
+            if args.format == "raw":
+                image = to_image_msg(pixels, args.encoding)
+            else:
+                image = to_compressed_msg(pixels, args.encoding, args.format, args.quality)
             stamp = rospy.Time.from_sec(args.start + i / args.rate)
             image.header.seq = info.header.seq = i
             image.header.stamp = info.header.stamp = stamp
             image.header.frame_id = info.header.frame_id = args.frame_id
             bag.write(args.info_topic, info, stamp - rospy.Duration(0, 1000))
-            bag.write(args.image_topic, image, stamp)
-    print("frames_to_bag: %d frames at %g Hz -> %s" % (len(frames), args.rate, args.bag))
+            bag.write(image_topic, image, stamp)
+    print("frames_to_bag: %d frames at %g Hz on %s -> %s" % (len(frames), args.rate, image_topic, args.bag))
 
 
 if __name__ == "__main__":

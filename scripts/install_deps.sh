@@ -13,7 +13,7 @@ PACKAGES=(
   libnodeletlib-dev pluginlib-dev librostest-dev libstd-msgs-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-sensor-msgs
   python3-dynamic-reconfigure python3-cv-bridge python3-numpy
-  python3-opencv python3-yaml python3-std-srvs python3-rosgraph-msgs ros-image-view
+  python3-opencv python3-yaml python3-std-srvs python3-rosgraph-msgs python3-diagnostic-msgs ros-image-view
   python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools rviz
   libnodeletlib-tools
   libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev libgmock-dev libbenchmark-dev

@@ -9,11 +9,13 @@
 #include <cv_bridge/cv_bridge.h>
 #include <geometry_msgs/PoseStamped.h>
 #include <geometry_msgs/TransformStamped.h>
+#include <image_transport/camera_common.h>
 #include <image_transport/exception.h>
 #include <ros/master.h>
 #include <sensor_msgs/image_encodings.h>
 #include <visualization_msgs/Marker.h>
 #include <boost/any.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "camera_info_conversion.h"
@@ -32,6 +34,17 @@ constexpr double kErrorThrottlePeriod = 5.0;
 constexpr std::size_t kMaxErrorKinds = 64;
 // How long without a processed frame before checking whether camera_info is published at all.
 constexpr double kCameraInfoCheckPeriod = 5.0;
+// "Frame age" bounds (s): TimeStampStatus's defaults, a second early to five seconds late.
+constexpr double kMinFrameAge = -1.0;
+constexpr double kMaxFrameAge = 5.0;
+// image_transport's name for the compressed transport and its topic suffix.
+const char* const kCompressed = "compressed";
+const std::string kCompressedSuffix = "/compressed";
+
+bool endsWith(const std::string& text, const std::string& suffix)
+{
+  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
 
 std::optional<PixelFormat> pixelFormatOf(const std::string& encoding)
 {
@@ -78,6 +91,34 @@ void checkBuffer(const sensor_msgs::Image& msg)
                                 std::to_string(static_cast<size_t>(msg.step) * msg.height));
 }
 
+// cv::imdecode leaves its target as it was when it cannot read the data's header, and says
+// nothing else: a reused buffer would hand on the previous frame. Its first row is set to this
+// pattern before each decode (a decoded frame overwrites it; no camera row equals it).
+uint8_t staleMark(size_t i)
+{
+  return static_cast<uint8_t>(i * 7 + 13);
+}
+
+void markStale(cv::Mat& buffer)
+{
+  if (buffer.empty())
+    return;
+  uint8_t* row = buffer.ptr<uint8_t>(0);
+  for (size_t i = 0; i < buffer.cols * buffer.elemSize(); ++i)
+    row[i] = staleMark(i);
+}
+
+bool isStale(const cv::Mat& buffer)
+{
+  if (buffer.empty())
+    return true;
+  const uint8_t* row = buffer.ptr<uint8_t>(0);
+  for (size_t i = 0; i < buffer.cols * buffer.elemSize(); ++i)
+    if (row[i] != staleMark(i))
+      return false;
+  return true;
+}
+
 template <typename T>
 T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fallback, const char* expected)
 {
@@ -115,7 +156,12 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   const bool use_camera_info = readRosOption<bool>(pnh_, "use_camera_info", true, "true or false");
   const bool publish_tf = readRosOption<bool>(pnh_, "publish_tf", false, "true or false");
   const auto rectified = readRosOption<std::string>(pnh_, "rectified", "auto", "auto, true or false");
-  rectified_ = isRectifiedStream(rectified, nh_.resolveName("image"));
+  // A topic named .../compressed is the compressed stream of the image topic before it.
+  const std::string image = nh_.resolveName("image");
+  const bool compressed = transport == kCompressed || endsWith(image, kCompressedSuffix);
+  const std::string base =
+      endsWith(image, kCompressedSuffix) ? image.substr(0, image.size() - kCompressedSuffix.size()) : image;
+  rectified_ = isRectifiedStream(rectified, base);
   spool_frame_ = readRosOption<std::string>(pnh_, "spool_frame", "spool", "a TF frame name");
   if (spool_frame_.empty())
     throw ParamError("spool_frame", "must not be empty; allowed: a TF frame name such as spool");
@@ -136,9 +182,12 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   if (!(updater_.getPeriod() > 0.0))
     throw ParamError("diagnostic_period", "must be a positive number of seconds");
   updater_.setHardwareID("spool_vision");
-  frequency_status_ = std::make_unique<diagnostic_updater::FrequencyStatus>(
-      diagnostic_updater::FrequencyStatusParam(&min_rate_, &max_rate_, 0.1, 10), "Frame rate");
-  updater_.add(*frequency_status_);
+  // A restarted rate window counts from half an update period on.
+  stream_monitor_ = std::make_unique<StreamMonitor>(
+      &min_rate_, &max_rate_, diagnostic_updater::TimeStampStatusParam(kMinFrameAge, kMaxFrameAge),
+      updater_.getPeriod() / 2.0);
+  updater_.add("Frame rate", stream_monitor_.get(), &StreamMonitor::diagnoseRate);
+  updater_.add("Frame age", stream_monitor_.get(), &StreamMonitor::diagnoseAge);
   updater_.add("Processing", this, &SpoolDetectorRos::diagnoseProcessing);
   // Wall time: diagnostics keep coming while a replayed clock is paused.
   diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(updater_.getPeriod()),
@@ -150,41 +199,77 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   debug_pub_ = private_it_.advertise("debug_image", 1);
   if (publish_tf)
     tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
-  std::string inputs;
+  // camera_info beside the image topic, as image_transport names it.
+  if (use_camera_info)
+    info_topic_ = image_transport::getCameraInfoTopic(base);
+  else
+    camera_problem_ = "use_camera_info is false";
+  const std::string inputs = (compressed ? subscribeCompressed(base + kCompressedSuffix, queue_size)
+                                         : subscribeImages(transport, queue_size)) +
+                             (use_camera_info ? " with " + info_topic_ : ", no camera_info");
+  if (use_camera_info)
+    camera_info_check_timer_ = nh_.createWallTimer(ros::WallDuration(kCameraInfoCheckPeriod),
+                                                   [this](const ros::WallTimerEvent&) { checkCameraInfoPublished(); });
+  const std::string tf = publish_tf ? " and TF frame " + spool_frame_ : "";
+  ROS_INFO("spool_detector: listening on %s, publishing %s, %s and %s%s", inputs.c_str(), pose_pub_.getTopic().c_str(),
+           pose_stamped_pub_.getTopic().c_str(), marker_pub_.getTopic().c_str(), tf.c_str());
+}
+
+std::string SpoolDetectorRos::subscribeImages(const std::string& transport, int queue_size)
+{
+  // The pairing exists before the first image can come (a nodelet's queue runs during onInit).
+  if (!info_topic_.empty())
+    subscribeInfo(queue_size, image_pairing_, &SpoolDetectorRos::imageCallback);
   try
   {
     // Hints read ~image_transport (already checked above) rather than a global parameter.
     const image_transport::TransportHints hints(transport, ros::TransportHints(), pnh_);
-    if (use_camera_info)
-    {
-      // Each image is processed with the camera_info of its own stamp (camera_info beside the
-      // image topic, as image_transport names it); images without one are not delivered.
-      camera_sub_ = it_.subscribeCamera(
-          "image", queue_size,
-          [this](const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
-          { imageCallback(msg, info); },
-          ros::VoidPtr(), hints);
-      inputs = camera_sub_.getTopic() + " (" + camera_sub_.getTransport() + ") with " + camera_sub_.getInfoTopic();
-      camera_info_check_timer_ =
-          nh_.createWallTimer(ros::WallDuration(kCameraInfoCheckPeriod),
-                              [this](const ros::WallTimerEvent&) { checkCameraInfoPublished(); });
-    }
-    else
-    {
-      camera_problem_ = "use_camera_info is false";
-      image_sub_ = it_.subscribe(
-          "image", queue_size, [this](const sensor_msgs::ImageConstPtr& msg) { imageCallback(msg, nullptr); },
-          ros::VoidPtr(), hints);
-      inputs = image_sub_.getTopic() + " (" + image_sub_.getTransport() + "), no camera_info";
-    }
+    image_sub_ = it_.subscribe(
+        "image", queue_size,
+        [this](const sensor_msgs::ImageConstPtr& msg)
+        {
+          if (image_pairing_)
+            image_pairing_->addImage(msg);
+          else
+            imageCallback(msg, nullptr);
+        },
+        ros::VoidPtr(), hints);
   }
   catch (const image_transport::TransportLoadException& e)
   {
     throw ParamError("image_transport", "transport '" + transport + "' cannot be loaded (" + e.what() + ")");
   }
-  const std::string tf = publish_tf ? " and TF frame " + spool_frame_ : "";
-  ROS_INFO("spool_detector: listening on %s, publishing %s, %s and %s%s", inputs.c_str(), pose_pub_.getTopic().c_str(),
-           pose_stamped_pub_.getTopic().c_str(), marker_pub_.getTopic().c_str(), tf.c_str());
+  image_topic_ = image_sub_.getTopic();
+  return image_topic_ + " (" + image_sub_.getTransport() + ")";
+}
+
+std::string SpoolDetectorRos::subscribeCompressed(const std::string& topic, int queue_size)
+{
+  if (!info_topic_.empty())
+    subscribeInfo(queue_size, compressed_pairing_, &SpoolDetectorRos::compressedCallback);
+  image_topic_ = topic;
+  compressed_sub_ = nh_.subscribe<sensor_msgs::CompressedImage>(topic, queue_size,
+                                                                [this](const sensor_msgs::CompressedImageConstPtr& msg)
+                                                                {
+                                                                  if (compressed_pairing_)
+                                                                    compressed_pairing_->addImage(msg);
+                                                                  else
+                                                                    compressedCallback(msg, nullptr);
+                                                                });
+  return topic + " (sensor_msgs/CompressedImage)";
+}
+
+template <typename Image>
+void SpoolDetectorRos::subscribeInfo(int queue_size, std::unique_ptr<StampPairing<Image>>& pairing,
+                                     void (SpoolDetectorRos::*callback)(const boost::shared_ptr<const Image>&,
+                                                                        const sensor_msgs::CameraInfoConstPtr&))
+{
+  // Each image is processed with the camera_info of its own stamp; images without one are not.
+  pairing = std::make_unique<StampPairing<Image>>(
+      queue_size, [this, callback](const boost::shared_ptr<const Image>& image,
+                                   const sensor_msgs::CameraInfoConstPtr& info) { (this->*callback)(image, info); });
+  info_sub_ = nh_.subscribe<sensor_msgs::CameraInfo>(
+      info_topic_, queue_size, [&pairing](const sensor_msgs::CameraInfoConstPtr& info) { pairing->addInfo(info); });
 }
 
 void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t /*level*/)
@@ -219,25 +304,46 @@ void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t
 
 void SpoolDetectorRos::imageCallback(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
 {
+  char description[96];
+  std::snprintf(description, sizeof(description), "image %u (%s, %ux%u)", msg->header.seq, msg->encoding.c_str(),
+                msg->width, msg->height);
+  handleFrame(
+      msg->header, msg->encoding, [&] { return decodeImage(msg); }, info, description);
+}
+
+void SpoolDetectorRos::compressedCallback(const sensor_msgs::CompressedImageConstPtr& msg,
+                                          const sensor_msgs::CameraInfoConstPtr& info)
+{
+  char description[96];
+  std::snprintf(description, sizeof(description), "compressed image %u ('%s', %zu bytes)", msg->header.seq,
+                msg->format.c_str(), msg->data.size());
+  handleFrame(
+      msg->header, msg->format, [&] { return decodeCompressed(*msg); }, info, description);
+}
+
+template <typename Decode>
+void SpoolDetectorRos::handleFrame(const std_msgs::Header& header, const std::string& input, const Decode& decode,
+                                   const sensor_msgs::CameraInfoConstPtr& info, const std::string& description)
+{
   const ros::WallTime start = ros::WallTime::now();
   ++frames_since_check_;
+  stream_monitor_->tick(header.stamp);
   try
   {
-    processImage(msg, info);
+    const auto [image, format] = decode();
+    processFrame(header, image, format, info);
   }
   catch (const std::exception& e)
   {
     // cv_bridge::Exception, cv::Exception and std::invalid_argument (bad image) all land here;
     // the controller still gets a message for the frame, with nothing detected.
-    if (shouldLogError(msg->encoding, e.what()))
-      ROS_ERROR("spool_detector: cannot process image %u (%s, %ux%u): %s", msg->header.seq, msg->encoding.c_str(),
-                msg->width, msg->height, e.what());
+    if (shouldLogError(input, e.what()))
+      ROS_ERROR("spool_detector: cannot process %s: %s", description.c_str(), e.what());
     const auto& g = detector_.params().geometry;
-    pose_pub_.publish(undefinedSpoolPose(msg->header, (g.hole_diameter - g.puller_diameter) / 2.0));
-    marker_pub_.publish(spoolMarker(msg->header, std::nullopt, g.flange_diameter, g.hub_length));
+    pose_pub_.publish(undefinedSpoolPose(header, (g.hole_diameter - g.puller_diameter) / 2.0));
+    marker_pub_.publish(spoolMarker(header, std::nullopt, g.flange_diameter, g.hub_length));
     ++window_failed_;
   }
-  frequency_status_->tick();
   window_callback_ms_ += (ros::WallTime::now() - start).toSec() * 1000.0;
 }
 
@@ -259,12 +365,9 @@ bool SpoolDetectorRos::shouldLogError(const std::string& encoding, const std::st
   return true;
 }
 
-void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info)
+std::pair<cv::Mat, PixelFormat> SpoolDetectorRos::decodeImage(const sensor_msgs::ImageConstPtr& msg)
 {
   checkBuffer(*msg);
-  cv_bridge::CvImageConstPtr frame;
-  cv::Mat image;
-  PixelFormat format = PixelFormat::kMono8;
   const int rows = static_cast<int>(msg->height);
   const int cols = static_cast<int>(msg->width);
   auto* data = const_cast<uint8_t*>(msg->data.data());  // read only: wrapped, never written
@@ -272,9 +375,9 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg, const
   {
     const cv::Mat packed(rows, cols, CV_8UC2, data, msg->step);
     cv::cvtColor(packed, converted_, msg->encoding == kYuyv ? cv::COLOR_YUV2GRAY_YUY2 : cv::COLOR_YUV2GRAY_UYVY);
-    image = converted_;
+    return {converted_, PixelFormat::kMono8};
   }
-  else if (msg->encoding == enc::MONO16 && msg->is_bigendian)
+  if (msg->encoding == enc::MONO16 && msg->is_bigendian)
   {
     // cv_bridge fails on big-endian words; this host reads them little-endian: swap the bytes.
     converted_.create(rows, cols, CV_16UC1);
@@ -285,28 +388,41 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg, const
       for (int x = 0; x < cols; ++x)
         out[x] = static_cast<uint16_t>((in[2 * x] << 8) | in[2 * x + 1]);
     }
-    image = converted_;
-    format = PixelFormat::kMono16;
+    return {converted_, PixelFormat::kMono16};
   }
-  else if (const auto direct = pixelFormatOf(msg->encoding))
-  {
-    frame = cv_bridge::toCvShare(msg);
-    image = frame->image;
-    format = *direct;
-  }
-  else
-  {
-    // Bayer (all four patterns) and 16-bit colour are converted; encodings without a colour
-    // meaning (depth, float) make cv_bridge throw.
-    frame = cv_bridge::toCvShare(msg, enc::MONO8);
-    image = frame->image;
-  }
+  // The shared frame wraps msg's buffer, which the caller holds for the whole callback.
+  if (const auto direct = pixelFormatOf(msg->encoding))
+    return {cv_bridge::toCvShare(msg)->image, *direct};
+  // Bayer (all four patterns) and 16-bit colour are converted (the Mat owns that copy);
+  // encodings without a colour meaning (depth, float) make cv_bridge throw.
+  return {cv_bridge::toCvShare(msg, enc::MONO8)->image, PixelFormat::kMono8};
+}
 
-  updateCamera(info, cols, rows);
+std::pair<cv::Mat, PixelFormat> SpoolDetectorRos::decodeCompressed(const sensor_msgs::CompressedImage& msg)
+{
+  if (msg.data.empty())
+    throw std::invalid_argument("no compressed data");
+  // Grey (and 16 bits where a png has them) is all the detector reads; a jpeg decoder skips
+  // the colour conversion for it. The buffer is reused while the frame size stays.
+  markStale(decoded_);
+  cv::imdecode(msg.data, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH, &decoded_);
+  if (isStale(decoded_))
+    throw std::invalid_argument("cannot decode the data as jpeg or png (format '" + msg.format + "')");
+  if (decoded_.depth() == CV_8U)
+    return {decoded_, PixelFormat::kMono8};
+  if (decoded_.depth() == CV_16U)
+    return {decoded_, PixelFormat::kMono16};
+  throw std::invalid_argument("decoded image has an unsupported depth (format '" + msg.format + "')");
+}
+
+void SpoolDetectorRos::processFrame(const std_msgs::Header& header, const cv::Mat& image, PixelFormat format,
+                                    const sensor_msgs::CameraInfoConstPtr& info)
+{
+  updateCamera(info, image.cols, image.rows);
   const SpoolDetection detection = detector_.detect(image, format);
-  reportCameraSource(*msg);
-  pose_pub_.publish(toSpoolPose(detection, msg->header));
-  publishSpool3d(detection, msg->header);
+  reportCameraSource(image.size());
+  pose_pub_.publish(toSpoolPose(detection, header));
+  publishSpool3d(detection, header);
 
   ++window_frames_;
   window_detected_ += detection.detected ? 1 : 0;
@@ -314,8 +430,7 @@ void SpoolDetectorRos::processImage(const sensor_msgs::ImageConstPtr& msg, const
   window_detector_max_ms_ = std::max(window_detector_max_ms_, detection.time_ms);
 
   if (debug_pub_.getNumSubscribers() > 0)
-    debug_pub_.publish(
-        cv_bridge::CvImage(msg->header, enc::BGR8, renderOverlay(image, format, detection)).toImageMsg());
+    debug_pub_.publish(cv_bridge::CvImage(header, enc::BGR8, renderOverlay(image, format, detection)).toImageMsg());
 }
 
 void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info, int width, int height)
@@ -332,7 +447,7 @@ void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info,
     if (info_camera_)
       detector_.clearCamera();
     info_camera_.reset();
-    camera_problem_ = camera_sub_.getInfoTopic() + ": " + conversion.problem;
+    camera_problem_ = info_topic_ + ": " + conversion.problem;
     camera_refused_ = conversion.refused;
     return;
   }
@@ -381,7 +496,7 @@ void SpoolDetectorRos::publishSpool3d(const SpoolDetection& detection, const std
   tf_broadcaster_->sendTransform(transform);
 }
 
-void SpoolDetectorRos::reportCameraSource(const sensor_msgs::Image& msg)
+void SpoolDetectorRos::reportCameraSource(const cv::Size& size)
 {
   if (!detector_.usingFallbackCamera())
   {
@@ -394,8 +509,8 @@ void SpoolDetectorRos::reportCameraSource(const sensor_msgs::Image& msg)
   if (camera_problem_ == reported_problem_)
     return;
   char camera[96];
-  std::snprintf(camera, sizeof(camera), "f = %.1f px for %ux%u",
-                detector_.params().geometry.fallback_focal_length * msg.height / 120.0, msg.width, msg.height);
+  std::snprintf(camera, sizeof(camera), "f = %.1f px for %dx%d",
+                detector_.params().geometry.fallback_focal_length * size.height / 120.0, size.width, size.height);
   const std::string fallback = camera_problem_ + "; falling back to the thesis camera (" + camera +
                                ", principal point at the image centre). Distances and angles are only as good as "
                                "that guess: calibrate the camera.";
@@ -410,20 +525,24 @@ void SpoolDetectorRos::checkCameraInfoPublished()
 {
   const bool idle = frames_since_check_ == 0;
   frames_since_check_ = 0;
-  if (!idle || missing_info_reported_ || camera_sub_.getNumPublishers() == 0)
+  if (!idle || missing_info_reported_ || imagePublishers() == 0)
     return;
   ros::master::V_TopicInfo topics;
   if (!ros::master::getTopics(topics))
     return;
-  const std::string info_topic = camera_sub_.getInfoTopic();
-  if (std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) { return t.name == info_topic; }))
+  if (std::any_of(topics.begin(), topics.end(), [&](const ros::master::TopicInfo& t) { return t.name == info_topic_; }))
     return;
   ROS_WARN(
       "spool_detector: %s is published but %s is not, and images are processed only with the camera_info of "
       "their stamp: nothing is measured. Publish the camera's camera_info, or set ~use_camera_info false to "
       "measure images alone with the thesis camera",
-      camera_sub_.getTopic().c_str(), info_topic.c_str());
+      image_topic_.c_str(), info_topic_.c_str());
   missing_info_reported_ = true;
+}
+
+uint32_t SpoolDetectorRos::imagePublishers() const
+{
+  return compressed_sub_ ? compressed_sub_.getNumPublishers() : image_sub_.getNumPublishers();
 }
 
 void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status)

@@ -8,6 +8,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <utility>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <diagnostic_updater/update_functions.h>
@@ -15,11 +16,14 @@
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include "spool_vision/SpoolDetectorConfig.h"
 #include "spool_vision/spool_detector.h"
+#include "stamp_pairing.h"
+#include "stream_monitor.h"
 
 namespace spool_vision
 {
@@ -38,16 +42,42 @@ public:
   static const std::set<std::string>& rosKeys();
 
 private:
+  /// Subscribes `image` through image_transport (raw and any installed plugin), paired with
+  /// camera_info on info_topic_ unless that is empty (use_camera_info false); returns the input
+  /// for the start-up line.
+  std::string subscribeImages(const std::string& transport, int queue_size);
+  /// The same for sensor_msgs/CompressedImage on `topic`, subscribed directly (Debian has no
+  /// compressed plugin).
+  std::string subscribeCompressed(const std::string& topic, int queue_size);
+  /// camera_info on info_topic_, each paired with the image of its stamp.
+  template <typename Image>
+  void subscribeInfo(int queue_size, std::unique_ptr<StampPairing<Image>>& pairing,
+                     void (SpoolDetectorRos::*callback)(const boost::shared_ptr<const Image>&,
+                                                        const sensor_msgs::CameraInfoConstPtr&));
   /// `info` is the image's camera_info (same stamp), or null with use_camera_info false.
   void imageCallback(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info);
+  void compressedCallback(const sensor_msgs::CompressedImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info);
+  /// Runs `decode` (gives the frame and its pixel format) and the detector on one input message;
+  /// a failure is logged once per kind (`input`: encoding or compressed format) and answered
+  /// with an undefined SpoolPose. `description` names the message in the log.
+  template <typename Decode>
+  void handleFrame(const std_msgs::Header& header, const std::string& input, const Decode& decode,
+                   const sensor_msgs::CameraInfoConstPtr& info, const std::string& description);
   void reconfigureCallback(SpoolDetectorConfig& config, uint32_t level);
-  void processImage(const sensor_msgs::ImageConstPtr& msg, const sensor_msgs::CameraInfoConstPtr& info);
+  /// The frame of a raw image message (wrapped where possible, else converted into converted_).
+  std::pair<cv::Mat, PixelFormat> decodeImage(const sensor_msgs::ImageConstPtr& msg);
+  /// The frame of a jpeg or png message, decoded into decoded_ (grey: all the detector reads).
+  std::pair<cv::Mat, PixelFormat> decodeCompressed(const sensor_msgs::CompressedImage& msg);
+  void processFrame(const std_msgs::Header& header, const cv::Mat& image, PixelFormat format,
+                    const sensor_msgs::CameraInfoConstPtr& info);
   /// Gives the detector the camera `info` describes for an image of this size (or the fallback).
   void updateCamera(const sensor_msgs::CameraInfoConstPtr& info, int width, int height);
   void publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header);
   /// True when an input error of this kind was not logged in the last throttle period.
   bool shouldLogError(const std::string& encoding, const std::string& what);
-  void reportCameraSource(const sensor_msgs::Image& msg);
+  void reportCameraSource(const cv::Size& size);
+  /// Publishers of the image topic the node listens to (either kind of subscriber).
+  uint32_t imagePublishers() const;
   /// Images published but no camera_info beside them: say once that nothing is processed and why.
   void checkCameraInfoPublished();
   void diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status);
@@ -58,9 +88,15 @@ private:
 
   image_transport::ImageTransport it_;
   image_transport::ImageTransport private_it_;
-  // use_camera_info true: image + camera_info pairs; false: images alone (thesis camera).
-  image_transport::CameraSubscriber camera_sub_;
+  // Images through image_transport, or compressed images read by the node itself; with
+  // use_camera_info, camera_info and the pairing of the two by stamp (one kind used).
   image_transport::Subscriber image_sub_;
+  ros::Subscriber compressed_sub_;
+  ros::Subscriber info_sub_;
+  std::unique_ptr<StampPairing<sensor_msgs::Image>> image_pairing_;
+  std::unique_ptr<StampPairing<sensor_msgs::CompressedImage>> compressed_pairing_;
+  std::string image_topic_;  ///< resolved, as subscribed
+  std::string info_topic_;   ///< resolved; empty with use_camera_info false
   ros::Publisher pose_pub_;
   ros::Publisher pose_stamped_pub_;
   ros::Publisher marker_pub_;
@@ -75,7 +111,7 @@ private:
   double min_rate_;
   double max_rate_;
   diagnostic_updater::Updater updater_;
-  std::unique_ptr<diagnostic_updater::FrequencyStatus> frequency_status_;
+  std::unique_ptr<StreamMonitor> stream_monitor_;
   ros::WallTimer diagnostics_timer_;
 
   // Camera source: calibrated intrinsics from camera_info, or why the fallback applies.
@@ -97,6 +133,7 @@ private:
   int window_failed_ = 0;
   std::map<std::string, ros::WallTime> last_error_log_;  ///< per kind of input error
   cv::Mat converted_;  ///< frames the adapter converts itself (YUYV/UYVY, big-endian mono16)
+  cv::Mat decoded_;    ///< compressed frames, decoded into the same buffer every time
   double window_detector_ms_ = 0.0;
   double window_detector_max_ms_ = 0.0;
   double window_callback_ms_ = 0.0;

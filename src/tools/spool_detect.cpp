@@ -8,10 +8,13 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "cli_args.h"
 #include "image_file.h"
 #include "json_writer.h"
 #include "spool_vision/config_io.h"
+#include "spool_vision/overlay.h"
 #include "spool_vision/spool_detector.h"
 
 namespace fs = std::filesystem;
@@ -20,12 +23,14 @@ using spool_vision::JsonObject;
 namespace
 {
 const char* const kUsage =
-    "usage: spool_detect [--config FILE] [--camera-info FILE] [--mode mcht|cht] PATH...\n"
+    "usage: spool_detect [--config FILE] [--camera-info FILE] [--mode mcht|cht] [--overlay DIR] PATH...\n"
     "  PATH       an image (png, jpg, bmp) or a folder of images\n"
     "  --config   parameter YAML (default: built-in defaults = config/default.yaml)\n"
     "  --camera-info  ROS camera-calibration YAML: K and D for raw frames (plumb_bob,\n"
     "             rational_polynomial), P when D is zero (rectified); default: the thesis camera\n"
     "  --mode     mcht (concentric constraint, default) or cht (plain CHT, for comparison)\n"
+    "  --overlay  write DIR/<image name>.png: the image with what the detector saw (flange,\n"
+    "             hole, reference, distance, yaw, state); DIR is created if missing\n"
     "Prints one JSON object per image on stdout. Exit: 0 ok, 1 an image failed, 2 bad option/config.\n";
 
 bool isImage(const fs::path& p)
@@ -72,16 +77,18 @@ struct Options
   std::string config;
   std::string camera_info;
   std::string mode;
+  std::string overlay;
   std::vector<std::string> paths;
 };
 
 Options parseOptions(int argc, char** argv)
 {
-  const spool_vision::cli::CommandLine line(argc, argv, {"--config", "--camera-info", "--mode"}, kUsage,
+  const spool_vision::cli::CommandLine line(argc, argv, {"--config", "--camera-info", "--mode", "--overlay"}, kUsage,
                                             /*allow_positional=*/true);
   if (line.positional().empty())
     throw spool_vision::cli::UsageError("no PATH given");
-  return {line.text("--config"), line.text("--camera-info"), line.text("--mode"), line.positional()};
+  return {line.text("--config"), line.text("--camera-info"), line.text("--mode"), line.text("--overlay"),
+          line.positional()};
 }
 
 int run(int argc, char** argv)
@@ -106,6 +113,15 @@ int run(int argc, char** argv)
   }
   if (camera)
     detector->setCamera(*camera);
+  if (!options.overlay.empty())
+  {
+    std::error_code ec;
+    fs::create_directories(options.overlay, ec);
+    if (!fs::is_directory(options.overlay))
+      throw spool_vision::cli::UsageError(
+          "--overlay: cannot create the folder " + options.overlay + (ec ? " (" + ec.message() + ")" : ""),
+          /*show_usage=*/false);
+  }
 
   bool any_failed = false;
   bool fallback_said = false;
@@ -146,6 +162,14 @@ int run(int argc, char** argv)
           .add("confidence", d.confidence, 3)
           .addRaw("reference", JsonObject().add("x", d.reference.x, 2).add("y", d.reference.y, 2).str())
           .add("time_ms", d.time_ms, 3);
+      if (!options.overlay.empty())
+      {
+        // Same name as the image, as png: lossless, so the thin lines and text stay sharp.
+        const std::string overlay = (fs::path(options.overlay) / fs::path(path).stem()).string() + ".png";
+        if (!cv::imwrite(overlay, spool_vision::renderOverlay(file.image, file.format, d)))
+          throw std::runtime_error("cannot write the overlay " + overlay);
+        out.add("overlay", overlay);
+      }
     }
     catch (const std::exception& e)
     {

@@ -1,6 +1,7 @@
 // The command-line contract of spool_detect (DESIGN.md §6), checked on the real binary.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "cli_process.h"
 #include "synthetic.h"
@@ -121,4 +123,71 @@ TEST_F(SpoolDetectCli, ConfigAndModeAreApplied)
   ASSERT_EQ(run.lines.size(), 1u);
   EXPECT_TRUE(has(run.lines[0], "\"reference\": {\"x\": 80.00, \"y\": 50.00}")) << run.lines[0];
   EXPECT_TRUE(has(run.lines[0], "\"detected\": true")) << run.lines[0];
+}
+
+namespace
+{
+// Pixels of the overlay's text corner (top left, where the labels go) that stand out from a
+// background of grey level `background`: a label is readable when it brings the opposite shade.
+int contrastingTextPixels(const cv::Mat& bgr, int background)
+{
+  const cv::Mat corner = bgr(cv::Rect(0, 0, bgr.cols / 2, bgr.rows / 6));
+  cv::Mat grey;
+  cv::cvtColor(corner, grey, cv::COLOR_BGR2GRAY);
+  return cv::countNonZero(background > 127 ? grey < 64 : grey > 191);
+}
+}  // namespace
+
+TEST_F(SpoolDetectCli, OverlayWritesWhatTheDetectorSawPerImage)
+{
+  const fs::path out = dir_ / "overlay";
+  const CliRun run = spoolDetect("--overlay " + out.string() + " " + (dir_ / "set").string());
+  ASSERT_EQ(run.lines.size(), 3u);
+  EXPECT_EQ(run.exit_code, 1);  // c_broken.png, as without --overlay
+  EXPECT_TRUE(has(run.lines[0], "\"overlay\": \"" + (out / "a_spool.png").string() + "\"")) << run.lines[0];
+  EXPECT_TRUE(has(run.lines[1], "\"overlay\": \"" + (out / "b_empty.png").string() + "\"")) << run.lines[1];
+  EXPECT_FALSE(fs::exists(out / "c_broken.png"));
+
+  const cv::Mat spool = cv::imread((out / "a_spool.png").string());
+  ASSERT_EQ(spool.size(), cv::Size(640, 480));
+  // The flange rim in red where the JSON puts it (top of the circle).
+  const std::string flange = run.lines[0].substr(run.lines[0].find("\"flange\""));
+  const double x = number(flange, "x");
+  const double y = number(flange, "y");
+  const double r = number(flange, "r");
+  ASSERT_TRUE(std::isfinite(x) && std::isfinite(y) && std::isfinite(r)) << run.lines[0];
+  cv::Mat red;
+  cv::inRange(spool(cv::Rect(static_cast<int>(x) - 3, static_cast<int>(y - r) - 3, 7, 7)), cv::Scalar(0, 0, 180),
+              cv::Scalar(90, 90, 255), red);
+  EXPECT_GT(cv::countNonZero(red), 0) << "no red flange rim at the top of (" << x << ", " << y << ", " << r << ")";
+}
+
+TEST_F(SpoolDetectCli, OverlayTextIsReadableOnBrightAndDarkFrames)
+{
+  const fs::path out = dir_ / "overlay_shades";
+  fs::create_directories(dir_ / "shades");
+  for (const cv::Size size : {cv::Size(640, 480), cv::Size(160, 120)})
+    for (const int shade : {0, 255})
+      cv::imwrite(
+          (dir_ / "shades" / ("s" + std::to_string(size.width) + "_" + std::to_string(shade) + ".png")).string(),
+          cv::Mat(size, CV_8UC1, cv::Scalar(shade)));
+  ASSERT_EQ(spoolDetect("--overlay " + out.string() + " " + (dir_ / "shades").string()).exit_code, 0);
+  for (const int width : {640, 160})
+    for (const int shade : {0, 255})
+    {
+      const std::string name = "s" + std::to_string(width) + "_" + std::to_string(shade) + ".png";
+      const cv::Mat overlay = cv::imread((out / name).string());
+      ASSERT_FALSE(overlay.empty()) << name;
+      // "No spool" takes a few dozen pixels of glyph at 160x120.
+      EXPECT_GT(contrastingTextPixels(overlay, shade), width / 8) << name;
+    }
+}
+
+TEST_F(SpoolDetectCli, OverlayFolderThatCannotBeMadeExitsTwo)
+{
+  std::ofstream(dir_ / "a_file") << "in the way";
+  const CliRun run = spoolDetect("--overlay " + (dir_ / "a_file" / "sub").string() + " " + (dir_ / "set").string());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.errors.find("--overlay"), std::string::npos) << run.errors;
+  EXPECT_TRUE(run.lines.empty());
 }

@@ -26,17 +26,18 @@ def wait_until(condition, timeout=TIMEOUT, what="condition"):
 
 class DetectorClient(object):
     def __init__(self, node_name="/spool_detector", image_topic="/camera/image_raw",
-                 info_topic="/camera/camera_info", publish=True, publish_info=True):
+                 info_topic="/camera/camera_info", publish=True, publish_info=True, image_type=Image,
+                 pose_topic="/spool_pose"):
         self.node_name = node_name
         self._lock = threading.Lock()
         self._poses = {}
         self.logs = []
         self._next_stamp = 1000
-        self.pose_sub = rospy.Subscriber("/spool_pose", SpoolPose, self._on_pose, queue_size=100)
+        self.pose_sub = rospy.Subscriber(pose_topic, SpoolPose, self._on_pose, queue_size=100)
         self.log_sub = rospy.Subscriber("/rosout", Log, self._on_log, queue_size=1000)
         self.info_pub = None
         if publish:
-            self.image_pub = rospy.Publisher(image_topic, Image, queue_size=10)
+            self.image_pub = rospy.Publisher(image_topic, image_type, queue_size=10)
         if publish and publish_info:
             self.info_pub = rospy.Publisher(info_topic, CameraInfo, queue_size=10)
 
@@ -65,7 +66,8 @@ class DetectorClient(object):
                 if hasattr(c, "callerid_pub")]
 
     def send(self, image, info=None, frame_id="test_camera"):
-        """Publishes camera_info (if given) then the image; returns the SpoolPose for the image.
+        """Publishes camera_info (if given) then the image (Image or CompressedImage, as the client
+        was made); returns the SpoolPose for the image.
         A detector with use_camera_info true (the default) answers only images sent with info."""
         stamp = rospy.Time(self._next_stamp)
         self._next_stamp += 1
