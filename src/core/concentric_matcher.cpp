@@ -31,6 +31,11 @@ double ConcentricMatcher::axisShift(const Circle& flange) const
   // A rim turned by psi about the vertical: cos(psi) = r_h / r_v, and its ellipse centre moves
   // f (R/Z)^2 sin(psi) cos(psi) = r_v^2 / f sin(psi) cos(psi) off the axis (SpoolGeometry::rimPose).
   const double c = flange.r_horizontal / flange.r_vertical;
+  // Below ~10 degrees the rim is within 1.5% of round, which a fit on a blurred or partly hidden
+  // rim does not resolve: the shift would follow the fit's noise.
+  constexpr double kMinTurnCos = 0.985;
+  if (c > kMinTurnCos)
+    return 0.0;
   return flange.r_vertical * flange.r_vertical / focal_length_ * std::sqrt(1.0 - c * c) * c;
 }
 
