@@ -8,6 +8,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "spool_vision/preprocessor.h"
+
 namespace spool_vision
 {
 namespace
@@ -99,7 +101,7 @@ cv::Mat renderOverlay(const cv::Mat& image, PixelFormat format, const SpoolDetec
     case PixelFormat::kMono16:
     {
       cv::Mat mono8;
-      image.convertTo(mono8, CV_8U, 1.0 / 256.0);
+      Preprocessor::toGray(image, format, mono8);  // the detector's own scaling: one path
       cv::cvtColor(mono8, bgr, cv::COLOR_GRAY2BGR);
       break;
     }

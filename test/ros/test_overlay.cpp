@@ -75,4 +75,13 @@ TEST(Overlay, RejectsMismatchedInput)
 }
 
 }  // namespace
+
+TEST(Overlay, Mono16IsScaledAsTheDetectorScalesIt)
+{
+  // One conversion path: 257 * v (the full 16-bit range) shows as v, as the detector sees it.
+  const cv::Mat mono16(60, 80, CV_16UC1, cv::Scalar(257 * 100));
+  const cv::Mat out = renderOverlay(mono16, PixelFormat::kMono16, SpoolDetection());
+  EXPECT_EQ(out.at<cv::Vec3b>(2, 2), cv::Vec3b(100, 100, 100));
+}
+
 }  // namespace spool_vision
