@@ -25,27 +25,7 @@ if [ $# -eq 0 ] && [ ! -f "$bag" ]; then
     --encoding mono8 --compression bz2 >&2
 fi
 
-# A master of our own on a free port, so that a running ROS system is neither used nor disturbed.
-port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI="http://127.0.0.1:$port"
-export ROS_IP=127.0.0.1
-log="$ROS_LOG_DIR/demo.log"
-pids=()
-cleanup() {
-  # Newest first: the launch (detector and player) before the master.
-  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do
-    kill -INT "${pids[i]}" 2>/dev/null || true
-    for _ in $(seq 50); do kill -0 "${pids[i]}" 2>/dev/null || break; sleep 0.1; done
-    kill -KILL "${pids[i]}" 2>/dev/null || true
-  done
-}
-trap cleanup EXIT
-
-roscore -p "$port" >"$log" 2>&1 &
-pids+=($!)
-master_online() { /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(0 if rosgraph.is_master_online() else 1)'; }
-for _ in $(seq 100); do master_online && break; sleep 0.2; done
-master_online || { echo "demo: roscore did not start (see $log)" >&2; exit 1; }
+source "$SPOOL_ROOT/scripts/own_master.sh" demo
 
 # By path: `roslaunch spool_vision ...` is ambiguous while a workspace inside the repository
 # links back to it (build/ws/src/spool_vision).

@@ -17,27 +17,9 @@ set +u  # the catkin setup scripts read unset variables
 source "$SPOOL_WS/devel/setup.bash"
 set -u
 
-port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI="http://127.0.0.1:$port"
-export ROS_IP=127.0.0.1
-log="$ROS_LOG_DIR/soak.log"
 work=$(mktemp -d)
-pids=()
-cleanup() {
-  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do
-    kill -INT "${pids[i]}" 2>/dev/null || true
-    for _ in $(seq 50); do kill -0 "${pids[i]}" 2>/dev/null || break; sleep 0.1; done
-    kill -KILL "${pids[i]}" 2>/dev/null || true
-  done
-  rm -rf "$work"
-}
-trap cleanup EXIT
-
-roscore -p "$port" >"$log" 2>&1 &
-pids+=($!)
-master_online() { /usr/bin/python3 -c 'import rosgraph, sys; sys.exit(0 if rosgraph.is_master_online() else 1)'; }
-for _ in $(seq 100); do master_online && break; sleep 0.2; done
-master_online || { echo "soak: roscore did not start (see $log)" >&2; exit 1; }
+on_exit() { rm -rf "$work"; }
+source "$SPOOL_ROOT/scripts/own_master.sh" soak
 
 roslaunch "$SPOOL_ROOT/launch/spool_detector.launch" >>"$log" 2>&1 &
 pids+=($!)
