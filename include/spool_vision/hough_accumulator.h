@@ -173,8 +173,12 @@ private:
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,
                   const cv::Point2d& side);
 
-  cv::Mat votes_;
-  cv::Mat smoothed_;
+  cv::Mat votes_;     ///< a view of votes_data_
+  cv::Mat smoothed_;  ///< a view of smoothed_data_
+  /// The hole window's size changes with every candidate, and cv::Mat::create reallocates on any
+  /// change of shape: the cells live in buffers that only grow.
+  std::vector<float> votes_data_;
+  std::vector<float> smoothed_data_;
   cv::Point2d origin_;  ///< image position of cell (0,0)
   double cell_ = 1.0;
   std::vector<Peak> peaks_;

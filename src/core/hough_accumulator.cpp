@@ -358,7 +358,8 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
   peaks_.clear();
   // 3x3 binomial smoothing (zero border) spreads each vote over its neighbours, so a centre
   // whose votes straddle cells still forms one peak.
-  smoothed_.create(votes_.size(), CV_32F);
+  smoothed_data_.resize(std::max(smoothed_data_.size(), votes_.total()));
+  smoothed_ = cv::Mat(votes_.size(), CV_32F, smoothed_data_.data());
   std::fill(smoothed_.ptr<float>(), smoothed_.ptr<float>() + smoothed_.total(), 0.0f);
   for (int y = 1; y + 1 < votes_.rows; ++y)
   {
@@ -724,7 +725,8 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   origin_ = cv::Point2d(window.x - cell_, window.y - cell_);
   const int cols = static_cast<int>(std::ceil(window.width / cell_)) + 3;
   const int rows = static_cast<int>(std::ceil(window.height / cell_)) + 3;
-  votes_.create(rows, cols, CV_32F);
+  votes_data_.resize(std::max(votes_data_.size(), static_cast<size_t>(rows) * static_cast<size_t>(cols)));
+  votes_ = cv::Mat(rows, cols, CV_32F, votes_data_.data());
   std::fill(votes_.ptr<float>(), votes_.ptr<float>() + votes_.total(), 0.0f);  // setTo allocates
 
   vote(edges, search);
