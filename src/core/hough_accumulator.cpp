@@ -213,8 +213,10 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
 {
   const int w = undistorted_.cols;
   const int h = undistorted_.rows;
-  for (EdgePoint& e : edges)
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < edges.size(); ++i)
   {
+    const EdgePoint e = edges[i];
     const int x = std::clamp(cvRound(e.x), 0, w - 1);
     const int y = std::clamp(cvRound(e.y), 0, h - 1);
     const cv::Vec2f* row = undistorted_.ptr<cv::Vec2f>(y);
@@ -233,8 +235,13 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
     const float gx = jy[1] * e.dx - jx[1] * e.dy;
     const float gy = -jy[0] * e.dx + jx[0] * e.dy;
     const float norm = std::sqrt(gx * gx + gy * gy);
-    e = {at[0], at[1], gx / norm, gy / norm};
+    // Where a (wild) calibration has no inverse, undistortPoints diverges or the table folds:
+    // no position or direction there, so no edge.
+    if (!std::isfinite(at[0]) || !std::isfinite(at[1]) || !(norm > 0.0f) || !std::isfinite(norm))
+      continue;
+    edges[kept++] = {at[0], at[1], gx / norm, gy / norm};
   }
+  edges.resize(kept);
 }
 
 void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges)
