@@ -149,7 +149,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto format = static_cast<sv::PixelFormat>(format_byte % 6);
   // Now and then a matrix type that does not fit the format (documented: invalid_argument).
   const bool mistyped = format_byte >= 0xe0;
-  const int type = sv::matTypeOf(mistyped ? static_cast<sv::PixelFormat>((format_byte % 6 + 1) % 6) : format);
+  const int type = !mistyped ? sv::matTypeOf(format) : sv::matTypeOf(format) == CV_8UC3 ? CV_16UC1 : CV_8UC3;
   const std::uint8_t camera_kind = h.byte() % 6;
   const sv::DetectorParams params = paramsVariant(h.byte());
   const std::uint8_t layout = h.byte();
