@@ -44,7 +44,8 @@ public:
 private:
   /// The raw-frame rectangle whose edges can lie in the undistorted `roi`.
   cv::Rect rawRoi(const cv::Rect& roi) const;
-  /// Drops edges where the lens model has no inverse (no finite position or direction).
+  /// Drops edges where the lens model has no inverse (no direction, or a position more than the
+  /// frame's size off the frame).
   void undistort(std::vector<EdgePoint>& edges) const;
   /// Keeps the strongest max_edges of `edges` (strengths_ alongside), in their order.
   void keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges);

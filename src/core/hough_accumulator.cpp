@@ -235,9 +235,10 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
     const float gx = jy[1] * e.dx - jx[1] * e.dy;
     const float gy = -jy[0] * e.dx + jx[0] * e.dy;
     const float norm = std::sqrt(gx * gx + gy * gy);
-    // Where a (wild) calibration has no inverse, undistortPoints diverges or the table folds:
-    // no position or direction there, so no edge.
-    if (!std::isfinite(at[0]) || !std::isfinite(at[1]) || !(norm > 0.0f) || !std::isfinite(norm))
+    // Where a (wild) calibration has no inverse, undistortPoints diverges or the table folds: an
+    // edge without a direction, or thrown further off the frame than the frame is large, is none.
+    const bool placed = at[0] > -w && at[0] < 2.0f * w && at[1] > -h && at[1] < 2.0f * h;
+    if (!placed || !(norm > 0.0f) || !std::isfinite(norm))
       continue;
     edges[kept++] = {at[0], at[1], gx / norm, gy / norm};
   }
