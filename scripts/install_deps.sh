@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages spool_vision needs (ROS 1 from Debian, OpenCV, Eigen, GTest,
-# Google Benchmark). Idempotent: packages already installed are skipped, and apt is not touched
+# Google Benchmark; clang with libFuzzer and the sanitizer runtimes, llvm-symbolizer for readable
+# reports). Idempotent: packages already installed are skipped, and apt is not touched
 # when nothing is missing.
 set -euo pipefail
 
@@ -17,6 +18,7 @@ PACKAGES=(
   python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools rviz
   libnodeletlib-tools
   libopencv-dev libeigen3-dev libyaml-cpp-dev libgtest-dev libgmock-dev libbenchmark-dev
+  clang libclang-rt-dev llvm
 )
 
 missing=()

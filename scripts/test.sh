@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test: installs what is missing, builds, runs the gtest suites (core, io, CLI) and
-# the ROS tests (rostest, bag replay), then prints one summary line "N passed, N failed".
+# the ROS tests (rostest, bag replay), the core's gtests under sanitizers and a 60 s fuzz run
+# (scripts/sanitize.sh, scripts/fuzz.sh), then prints one summary line "N passed, N failed".
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
@@ -12,6 +13,25 @@ rm -rf "$results"
 # run_tests keeps going past a failing suite; the summary below decides the exit code.
 (cd "$SPOOL_WS" && catkin_make run_tests -j1 >"$SPOOL_WS/run_tests.log" 2>&1) || true
 grep -E '^\[ *(RUN|OK|FAILED|PASSED) *\]|^\[ROSTEST\]|^\[Testcase|FAILURE|ERROR' "$SPOOL_WS/run_tests.log" | tail -n 400 || true
+
+# The core's gtests under AddressSanitizer + UndefinedBehaviorSanitizer, then a short libFuzzer
+# run (60 s over its targets), both built with clang outside catkin. They write JUnit files into
+# the results, so the summary counts them; a run that fails before writing one (e.g. its build)
+# counts as one failed test.
+counted() {
+  local name="$1"
+  shift
+  local status=0
+  SPOOL_TEST_RESULTS="$results/$name" "$@" >"$SPOOL_WS/$name.log" 2>&1 || status=$?
+  tail -n 30 "$SPOOL_WS/$name.log"
+  if [ "$status" -ne 0 ] && ! ls "$results/$name"/*.xml >/dev/null 2>&1; then
+    mkdir -p "$results/$name"
+    printf '<testsuite name="%s"><testcase classname="%s" name="run"><failure message="exit %s, see %s"/></testcase></testsuite>\n' \
+      "$name" "$name" "$status" "$SPOOL_WS/$name.log" >"$results/$name/run.xml"
+  fi
+}
+counted sanitizers ./scripts/sanitize.sh
+counted fuzz ./scripts/fuzz.sh 60
 
 /usr/bin/python3 - "$results" <<'PY'
 import glob, sys, xml.etree.ElementTree as ET

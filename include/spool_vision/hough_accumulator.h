@@ -44,6 +44,8 @@ public:
 private:
   /// The raw-frame rectangle whose edges can lie in the undistorted `roi`.
   cv::Rect rawRoi(const cv::Rect& roi) const;
+  /// Drops edges where the lens model has no inverse (no direction, or a position more than the
+  /// frame's size off the frame).
   void undistort(std::vector<EdgePoint>& edges) const;
   /// Keeps the strongest max_edges of `edges` (strengths_ alongside), in their order.
   void keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges);
@@ -173,8 +175,12 @@ private:
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,
                   const cv::Point2d& side);
 
-  cv::Mat votes_;
-  cv::Mat smoothed_;
+  cv::Mat votes_;     ///< a view of votes_data_
+  cv::Mat smoothed_;  ///< a view of smoothed_data_
+  /// The hole window's size changes with every candidate, and cv::Mat::create reallocates on any
+  /// change of shape: the cells live in buffers that only grow.
+  std::vector<float> votes_data_;
+  std::vector<float> smoothed_data_;
   cv::Point2d origin_;  ///< image position of cell (0,0)
   double cell_ = 1.0;
   std::vector<Peak> peaks_;

@@ -213,8 +213,10 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
 {
   const int w = undistorted_.cols;
   const int h = undistorted_.rows;
-  for (EdgePoint& e : edges)
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < edges.size(); ++i)
   {
+    const EdgePoint e = edges[i];
     const int x = std::clamp(cvRound(e.x), 0, w - 1);
     const int y = std::clamp(cvRound(e.y), 0, h - 1);
     const cv::Vec2f* row = undistorted_.ptr<cv::Vec2f>(y);
@@ -233,8 +235,14 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
     const float gx = jy[1] * e.dx - jx[1] * e.dy;
     const float gy = -jy[0] * e.dx + jx[0] * e.dy;
     const float norm = std::sqrt(gx * gx + gy * gy);
-    e = {at[0], at[1], gx / norm, gy / norm};
+    // Where a (wild) calibration has no inverse, undistortPoints diverges or the table folds: an
+    // edge without a direction, or thrown further off the frame than the frame is large, is none.
+    const bool placed = at[0] > -w && at[0] < 2.0f * w && at[1] > -h && at[1] < 2.0f * h;
+    if (!placed || !(norm > 0.0f) || !std::isfinite(norm))
+      continue;
+    edges[kept++] = {at[0], at[1], gx / norm, gy / norm};
   }
+  edges.resize(kept);
 }
 
 void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges)
@@ -358,7 +366,8 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
   peaks_.clear();
   // 3x3 binomial smoothing (zero border) spreads each vote over its neighbours, so a centre
   // whose votes straddle cells still forms one peak.
-  smoothed_.create(votes_.size(), CV_32F);
+  smoothed_data_.resize(std::max(smoothed_data_.size(), votes_.total()));
+  smoothed_ = cv::Mat(votes_.size(), CV_32F, smoothed_data_.data());
   std::fill(smoothed_.ptr<float>(), smoothed_.ptr<float>() + smoothed_.total(), 0.0f);
   for (int y = 1; y + 1 < votes_.rows; ++y)
   {
@@ -724,7 +733,8 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   origin_ = cv::Point2d(window.x - cell_, window.y - cell_);
   const int cols = static_cast<int>(std::ceil(window.width / cell_)) + 3;
   const int rows = static_cast<int>(std::ceil(window.height / cell_)) + 3;
-  votes_.create(rows, cols, CV_32F);
+  votes_data_.resize(std::max(votes_data_.size(), static_cast<size_t>(rows) * static_cast<size_t>(cols)));
+  votes_ = cv::Mat(rows, cols, CV_32F, votes_data_.data());
   std::fill(votes_.ptr<float>(), votes_.ptr<float>() + votes_.total(), 0.0f);  // setTo allocates
 
   vote(edges, search);

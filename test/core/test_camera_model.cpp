@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "spool_vision/camera_model.h"
+#include "spool_vision/hough_accumulator.h"
 #include "spool_vision/spool_detector.h"
 #include "synthetic.h"
 
@@ -108,4 +109,30 @@ TEST(CameraModel, ADistortedFrameMeasuresLikeItsUndistortedTwin)
   ASSERT_TRUE(wrong.detected);
   EXPECT_GT(std::abs(wrong.yaw - reference.yaw), 0.2 * M_PI / 180);
   EXPECT_GT(std::abs(wrong.distance - reference.distance), 0.01 * reference.distance);
+}
+
+TEST(CameraModel, AWildCalibrationLeavesNoEdgeWithoutAPositionOrDirection)
+{
+  // Found by detector_fuzz: a rational_polynomial lens whose denominator nearly vanishes in the
+  // frame's corners has no inverse there; its edges came out NaN and voted out of range. (Its
+  // other find, edges 1e13 px off the frame, is the seed test/fuzz/corpus/detector_fuzz/
+  // wild_lens_far_edges, replayed by every fuzz run.)
+  CameraIntrinsics camera = CameraIntrinsics::thesisDefault(118, 47);
+  camera.cx -= 0.1 * 118;
+  camera.cy -= 0.2 * 47;
+  camera.distortion = {-0.31, -0.5, -0.0196, -0.02, -0.5, -0.5, -0.5, -0.5};
+  cv::Mat noise(47, 118, CV_8U);
+  cv::randu(noise, 0, 256);
+  spool_vision::EdgeDetector edges;
+  edges.setUndistortion(camera);
+  std::vector<spool_vision::EdgePoint> found;
+  edges.detect(noise, 0.03, 100000, found);
+  for (const spool_vision::EdgePoint& e : found)
+    ASSERT_TRUE(std::abs(e.x) < 3 * 118 && std::abs(e.y) < 3 * 47 && std::isfinite(e.dx) && std::isfinite(e.dy));
+
+  SpoolDetector detector;
+  detector.setCamera(camera);
+  cv::Mat bgr;
+  cv::cvtColor(noise, bgr, cv::COLOR_GRAY2BGR);
+  EXPECT_NO_THROW(detector.detect(bgr, PixelFormat::kBgr8));
 }
