@@ -2,6 +2,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <vector>
 
@@ -54,10 +55,14 @@ struct CameraIntrinsics
   /// (k1, k2, p1, p2, k3, k4, k5, k6); empty or all zero = an undistorted (or rectified) image.
   std::vector<double> distortion;
 
+  /// Positive finite focal lengths, a finite principal point, a positive size and a distortion
+  /// vector of a length OpenCV's model takes, all finite (a YAML `.inf` must not pass).
   bool valid() const
   {
-    return fx > 0.0 && fy > 0.0 && width > 0 && height > 0 &&
-           (distortion.empty() || distortion.size() == 4 || distortion.size() == 5 || distortion.size() == 8);
+    auto finite = [](double v) { return std::isfinite(v); };
+    return fx > 0.0 && fy > 0.0 && finite(fx) && finite(fy) && finite(cx) && finite(cy) && width > 0 && height > 0 &&
+           (distortion.empty() || distortion.size() == 4 || distortion.size() == 5 || distortion.size() == 8) &&
+           std::all_of(distortion.begin(), distortion.end(), finite);
   }
 
   /// True when the image must be undistorted before it is measured.

@@ -177,6 +177,12 @@ TEST(ConfigIo, CameraInfoErrors)
                                             "image_width: 640\nimage_height: 480\n"
                                             "camera_matrix: {rows: 3, cols: 3, data: [0,0,0,0,0,0,0,0,0]}\n")),
                std::runtime_error);
+  // Found by camera_info_fuzz: a YAML infinity passed as the principal point.
+  EXPECT_THROW(
+      loadCameraInfoYaml(writeTemp("inf.yaml",
+                                   "image_width: 640\nimage_height: 480\n"
+                                   "camera_matrix: {rows: 3, cols: 3, data: [812, 0, +.INF, 0, 811, 243, 0, 0, 1]}\n")),
+      std::runtime_error);
   EXPECT_THROW(loadCameraInfoYaml(writeTemp("short.yaml",
                                             "image_width: 640\nimage_height: 480\n"
                                             "camera_matrix: {rows: 3, cols: 3, data: [1, 2]}\n")),
