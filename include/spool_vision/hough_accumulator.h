@@ -137,8 +137,9 @@ public:
   /// The centre of a rim of known size (axis-aligned ellipse, semi-axes in px) within
   /// `max_shift` px of `start`, measured on the part of the rim that shows: the centre that puts
   /// the most edges of `search`'s polarity within a narrow band of the ellipse, each weighted by
-  /// its closeness (half-pixel grid, then a tenth). Only the half of the rim on the `side` of
-  /// `start` counts (a direction; zero = all of it). `circle.r` is the mean semi-axis; the score
+  /// its closeness (half-pixel grid, then a tenth, then a fiftieth: the bore's axis is read off
+  /// this centre). Only the half of the rim on the `side` of `start` counts (a direction; zero =
+  /// all of it). `circle.r` is the mean semi-axis; the score
   /// as refine()'s, over that half. False without support. For the bore's front rim, whose far
   /// side hides behind the bore wall catching light near the opening: a free fit follows the dark
   /// region inside and comes out small and off centre.

@@ -698,6 +698,7 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   };
   search_grid(start, max_shift, 0.5);
   search_grid(best, 0.5, 0.1);
+  search_grid(best, 0.1, 0.02);
   int count = 0;
   support(best, &count);
   if (count < 8)

@@ -254,3 +254,35 @@ TEST(HoughAccumulator, FitAtWithAnEmptyRadiusRangeFindsNothing)
   Circle c;
   EXPECT_FALSE(hough.fitAt(edges, img.size(), search, {320, 240}, BackFlange{}, c));
 }
+
+TEST(HoughAccumulator, FitCentreAtSizePlacesABlurredHalfRimToAFewHundredthsOfAPixel)
+{
+  // A bore's front rim at 55 cm (640x480): a lit disc in a dark face, blurred as the default
+  // pre-filter blurs it (sigma 1.5 px), fitted on its upper half only with the rim's size known.
+  // The bore's axis is read off this centre, 0.03 deg per 0.04 px.
+  const double x = 320.37;
+  const double y = 327.81;
+  const double r = 26.2;
+  const double sigma = 1.5;
+  cv::Mat img(480, 640, CV_8UC1, cv::Scalar(40));
+  spool_vision::test::fillEllipse(img, x, y, r, r, 200);
+  cv::Mat smooth;
+  cv::GaussianBlur(img, smooth, cv::Size(), sigma);
+  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.01);
+  HoughSearch search;
+  search.polarity = Polarity::kBright;
+  HoughAccumulator hough;
+  const cv::Point2d up(0.0, -1.0);
+  const cv::Point2d start(x + 0.6, y - 0.8);
+  // The blurred rim's gradient peaks sigma^2 / (2 r) inside it: searched for there, the centre
+  // is found; searched for on the rim itself, the half rim pulls it inward (down) by that much.
+  const double inset = 0.5 * sigma * sigma / r;
+  Circle at_inset;
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, r - inset, r - inset, 2.0, up, at_inset));
+  EXPECT_NEAR(at_inset.x, x, 0.02);
+  EXPECT_NEAR(at_inset.y, y, 0.02);
+  Circle on_rim;
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, r, r, 2.0, up, on_rim));
+  EXPECT_GT(on_rim.y - y, 0.6 * inset);
+  EXPECT_GT(at_inset.score, 0.9);
+}
