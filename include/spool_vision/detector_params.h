@@ -66,6 +66,9 @@ struct PreprocessParams
   double filter_sigma = 0.001875;  ///< rad, Gaussian sigma as a view angle (1.5 px at f = 800 px; also unsharp)
   int filter_kernel = 3;           ///< px, odd aperture of median / average
   double unsharp_amount = 0.8;     ///< gain of the unsharp mask
+  /// The camera's encoding exponent: pixel = radiance^encoding_gamma (sRGB webcams about 0.45;
+  /// 1 = linear). The bore's rim is placed in linear light (EdgeDetector::LinearLight).
+  double encoding_gamma = 0.45;
   BinarizeType binarize = BinarizeType::kNone;
   double binarize_threshold = 0.35;  ///< fraction of full scale (thesis: 0.35)
   MorphologyType morphology = MorphologyType::kNone;

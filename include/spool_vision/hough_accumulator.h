@@ -19,6 +19,15 @@ struct EdgePoint
   float dy;
 };
 
+/// A frame's pixels as light: the unfiltered gray frame read through a table of linear light per
+/// gray level (Preprocessor::linearLight()).
+struct LinearLight
+{
+  const cv::Mat* gray = nullptr;  ///< CV_8UC1, the frame the gradients were computed from, unfiltered
+  const float* table = nullptr;   ///< 256 entries
+  double reach = 4.0;             ///< px either side of an edge that its profile is read over
+};
+
 /// Sobel gradients, non-maximum suppression along the gradient and sub-pixel edge positions.
 class EdgeDetector
 {
@@ -31,7 +40,13 @@ public:
   /// The two halves of detect(): gradients of the whole frame once, then edges of any region
   /// at any threshold (the faint hole rim is extracted at a lower threshold in its small window).
   void computeGradients(const cv::Mat& gray8);
-  void extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges);
+  /// With `linear`, each edge is then moved along its gradient to where the light crosses
+  /// half-way between the levels `linear.reach` px before and after it (at most 2 px): a camera's
+  /// gamma puts a blurred edge's gradient peak on its dark side (up to 1.5 px at 640x480 with a
+  /// few px of defocus or motion blur), while any symmetric blur keeps the half-way point of the
+  /// light on the edge.
+  void extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges,
+               const LinearLight* linear = nullptr);
 
   /// Frames of `camera`'s size with lens distortion give their edges in the undistorted image
   /// (the ideal pinhole image with the same K): each position through undistortionTable(), each
@@ -47,6 +62,8 @@ private:
   /// Drops edges where the lens model has no inverse (no direction, or a position more than the
   /// frame's size off the frame).
   void undistort(std::vector<EdgePoint>& edges) const;
+  /// extract()'s move of each edge to the half-way crossing of the light.
+  static void placeInLinearLight(const LinearLight& linear, std::vector<EdgePoint>& edges);
   /// Keeps the strongest max_edges of `edges` (strengths_ alongside), in their order.
   void keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges);
 

@@ -1,6 +1,7 @@
 // Stage 1: grayscale, noise filter, optional binarization, morphology and area opening.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -37,11 +38,23 @@ public:
   /// Removes 8-connected foreground components smaller than min_component_area.
   void areaOpening(const cv::Mat& binary, cv::Mat& out);
 
+  /// The last process()'s gray frame before filtering (CV_8UC1).
+  const cv::Mat& gray() const
+  {
+    return gray_;
+  }
+  /// Linear light of each gray level, (level / 255)^(1 / encoding_gamma), 0..1.
+  const std::array<float, 256>& linearLight() const
+  {
+    return linear_light_;
+  }
+
 private:
   void gaussian(const cv::Mat& gray, cv::Mat& out);
 
   PreprocessParams params_;
   std::vector<std::uint16_t> kernel_;  ///< Gaussian taps, 8.8 fixed point, summing to 256
+  std::array<float, 256> linear_light_{};
   cv::Mat rows_;
   std::vector<std::uint16_t> line_;
   std::vector<std::uint32_t> acc_;

@@ -74,8 +74,9 @@ private:
   /// The most edges kept from a region of `size` (edge_budget).
   std::size_t edgeBudget(cv::Size size) const;
   /// hole_edges_: the edges at hole_edge_threshold of a rim whose centre lies in `centres`
-  /// (a rectangle, or a point) and whose radius is at most `reach` px.
-  void extractHoleEdges(const cv::Rect2d& centres, double reach);
+  /// (a rectangle, or a point) and whose radius is at most `reach` px; placed in `linear` light
+  /// when given (EdgeDetector::extract).
+  void extractHoleEdges(const cv::Rect2d& centres, double reach, const LinearLight* linear = nullptr);
   /// Picks the target among the flange candidates and finds its hole (thesis Rule 2).
   void selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min, double hole_max,
                     SpoolDetection& result);

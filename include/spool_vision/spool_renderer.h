@@ -275,7 +275,7 @@ private:
 };
 
 /// Random but plausible scene parameters of the given kind (lamps, neighbours, label, ribs,
-/// imperfections, object size). Deterministic in `seed`.
+/// imperfections, object size, a webcam's gamma of 0.4-0.5). Deterministic in `seed`.
 SceneParams randomScene(SceneKind kind, std::uint64_t seed);
 
 /// randomScene's shelf with real-webcam effects and finishes drawn on top: auto exposure with

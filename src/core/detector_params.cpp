@@ -81,6 +81,9 @@ std::vector<ParamSpec> buildSpecs()
       number("filter_kernel", FIELD(preprocess.filter_kernel), 1, 31, "px",
              "odd aperture of median and average filters"),
       number("unsharp_amount", FIELD(preprocess.unsharp_amount), 0.0, 5.0, "", "gain of the unsharp mask"),
+      number("encoding_gamma", FIELD(preprocess.encoding_gamma), 0.1, 1.0, "",
+             "the camera's encoding exponent, pixel = radiance^encoding_gamma (sRGB webcams: about 0.45; 1 = "
+             "linear); the bore's front rim is placed in linear light"),
       choice<BinarizeType>("binarize", FIELD(preprocess.binarize), {"fixed", "otsu", "none"},
                            "binarization before the Hough stage (thesis: fixed)"),
       number("binarize_threshold", FIELD(preprocess.binarize_threshold), 0.0, 1.0, "fraction of full scale",

@@ -4,6 +4,7 @@
 #include <array>
 #include <bitset>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
@@ -245,7 +246,8 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
   edges.resize(kept);
 }
 
-void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges)
+void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges,
+                           const LinearLight* linear)
 {
   edges.clear();
   strengths_.clear();
@@ -286,8 +288,76 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
   }
   if (edges.size() > max_edges)
     keepStrongest(max_edges, edges);
+  if (linear && linear->gray && linear->gray->size() == mag_.size())
+    placeInLinearLight(*linear, edges);
   if (!undistorted_.empty() && undistorted_.size() == mag_.size())
     undistort(edges);
+}
+
+void EdgeDetector::placeInLinearLight(const LinearLight& linear, std::vector<EdgePoint>& edges)
+{
+  const cv::Mat& gray = *linear.gray;
+  const float* table = linear.table;
+  auto light = [&](float x, float y)  // bilinear, clamped to the frame
+  {
+    x = std::clamp(x, 0.0f, static_cast<float>(gray.cols - 1));
+    y = std::clamp(y, 0.0f, static_cast<float>(gray.rows - 1));
+    const int x0 = std::min(static_cast<int>(x), std::max(gray.cols - 2, 0));
+    const int y0 = std::min(static_cast<int>(y), std::max(gray.rows - 2, 0));
+    const int x1 = std::min(x0 + 1, gray.cols - 1);
+    const int y1 = std::min(y0 + 1, gray.rows - 1);
+    const float fx = x - static_cast<float>(x0);
+    const float fy = y - static_cast<float>(y0);
+    const uchar* top = gray.ptr<uchar>(y0);
+    const uchar* bottom = gray.ptr<uchar>(y1);
+    return (1.0f - fy) * ((1.0f - fx) * table[top[x0]] + fx * table[top[x1]]) +
+           fy * ((1.0f - fx) * table[bottom[x0]] + fx * table[bottom[x1]]);
+  };
+  // Half-pixel samples along the gradient (dark to light), kMaxSamples at most.
+  constexpr int kMaxHalfSteps = 16;
+  constexpr float kMaxMove = 2.0f;  // px: further off, the crossing belongs to another edge
+  const int n = std::clamp(static_cast<int>(std::ceil(2.0 * linear.reach)), 2, kMaxHalfSteps);
+  std::array<float, 2 * kMaxHalfSteps + 1> profile{};
+  // The crossing of the profile read about `at`, relative to it (NaN without one near it).
+  auto crossing = [&](const cv::Point2f& at, const EdgePoint& e)
+  {
+    for (int k = -n; k <= n; ++k)
+      profile[static_cast<std::size_t>(k + n)] = light(at.x + 0.5f * k * e.dx, at.y + 0.5f * k * e.dy);
+    const float dark = 0.5f * (profile[0] + profile[1]);
+    const float bright =
+        0.5f * (profile[static_cast<std::size_t>(2 * n)] + profile[static_cast<std::size_t>(2 * n - 1)]);
+    float move = std::numeric_limits<float>::quiet_NaN();
+    if (!(bright > dark))
+      return move;
+    const float half = 0.5f * (dark + bright);
+    for (int k = 0; k < 2 * n; ++k)
+    {
+      const float a = profile[static_cast<std::size_t>(k)];
+      const float b = profile[static_cast<std::size_t>(k + 1)];
+      const float t = 0.5f * (static_cast<float>(k - n) + (half - a) / (b - a));
+      if (a <= half && b > half && !(std::abs(t) >= std::abs(move)))
+        move = t;
+    }
+    return move;
+  };
+  for (EdgePoint& e : edges)
+  {
+    // Read again about the moved point: the levels either side are then taken as far from the
+    // edge on both sides, which a blur wider than the reach needs.
+    cv::Point2f at(e.x, e.y);
+    for (int pass = 0; pass < 2; ++pass)
+    {
+      const float move = crossing(at, e);
+      if (!(std::abs(move) <= kMaxMove))
+        break;
+      at += cv::Point2f(move * e.dx, move * e.dy);
+    }
+    if (std::hypot(at.x - e.x, at.y - e.y) <= kMaxMove)
+    {
+      e.x = at.x;
+      e.y = at.y;
+    }
+  }
 }
 
 void EdgeDetector::keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges)

@@ -39,6 +39,8 @@ void Preprocessor::setParams(const PreprocessParams& params, double focal_length
 {
   params_ = params;
   structuring_element_ = diskElement(params_.morphology_radius);
+  for (std::size_t level = 0; level < linear_light_.size(); ++level)
+    linear_light_[level] = static_cast<float>(std::pow(level / 255.0, 1.0 / params_.encoding_gamma));
   // Gaussian taps out to 3 sigma in 8.8 fixed point, summing to exactly 256 (the centre tap
   // takes the rounding), so a flat image stays flat.
   const double sigma = params_.filter_sigma * focal_length;

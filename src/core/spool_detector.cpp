@@ -146,11 +146,11 @@ std::size_t SpoolDetector::edgeBudget(cv::Size size) const
   return static_cast<std::size_t>(params_.hough.edge_budget * (size.width + size.height));
 }
 
-void SpoolDetector::extractHoleEdges(const cv::Rect2d& centres, double reach)
+void SpoolDetector::extractHoleEdges(const cv::Rect2d& centres, double reach, const LinearLight* linear)
 {
   const cv::Rect window(cvFloor(centres.x - reach), cvFloor(centres.y - reach), cvCeil(centres.width + 2.0 * reach) + 1,
                         cvCeil(centres.height + 2.0 * reach) + 1);
-  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_);
+  edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_, linear);
 }
 
 void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min,
@@ -258,7 +258,15 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   if (semi_y < kMinRadius)
     return;
   Circle& hole = result.hole;
-  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), std::max(semi_x, semi_y) + 0.25 * semi_y + 3.0);
+  const CameraIntrinsics& camera = geometry_->camera();
+  const PreprocessParams& pre = params_.preprocess;
+  const double sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * camera.fy : 0.0;
+  // The rim's edges are placed in the frame's light (a binarized frame has none to read); its
+  // profile is read over three filter sigmas, the blur the filter is set for at this size.
+  const bool in_light = pre.binarize == BinarizeType::kNone;
+  const LinearLight light{&preprocessor_.gray(), preprocessor_.linearLight().data(), std::max(2.0, 3.0 * sigma)};
+  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), std::max(semi_x, semi_y) + 0.25 * semi_y + 3.0,
+                   in_light ? &light : nullptr);
   HoughSearch search;
   search.polarity = params_.hough.hole_polarity;
   // Deeper in the bore a circle of the wall projects nearer the principal point (as the back
@@ -266,17 +274,14 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   // side away from it: a band about |hole - principal point| * depth / Z px wide for the ~1.5 cm
   // of wall the light reaches. Where that is a fraction of a pixel the whole rim counts; else
   // only its half facing the principal point, which is sharp.
-  const CameraIntrinsics& camera = geometry_->camera();
   const cv::Point2d outward(hole.x - camera.cx, hole.y - camera.cy);
   const double depth = geometry_->depthFromDiameter(2.0 * flange.r_vertical);
   constexpr double kLitWall = 0.015;  // m
   const cv::Point2d side = std::hypot(outward.x, outward.y) * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
-  // A blurred rim's gradient peaks inside it, by sigma^2 / (2 r) for the filter's sigma (Gaussian
-  // scale-space edge shift at curvature 1/r; 0.04 px at 640x480, which read off the flange rim's
-  // ellipse centre is 0.03 deg of axis): the fit looks for the edges there and reports the rim.
-  const double sigma =
-      params_.preprocess.filter == FilterType::kGaussian ? params_.preprocess.filter_sigma * camera.fy : 0.0;
-  const double inset = 0.5 * sigma * sigma;
+  // A filtered rim's gradient peaks inside it, by sigma^2 / (2 r) (Gaussian scale-space edge
+  // shift at curvature 1/r; 0.04 px at 640x480, 0.03 deg of axis read off the flange rim's
+  // ellipse centre): without the light to place them, the fit looks for the edges there.
+  const double inset = in_light ? 0.0 : 0.5 * sigma * sigma;
   Circle fitted;
   if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x - inset / semi_x,
                                   semi_y - inset / semi_y, 0.25 * semi_y + 1.0, side, fitted) &&

@@ -1315,6 +1315,8 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed)
   s.noise_sigma = rng.uniform(1.0, 4.0);
   s.jpeg_quality = rng.uniform(0.0, 1.0) < 0.7 ? rng.uniform(70, 96) : 0;
   s.vignetting = rng.uniform(0.05, 0.25);
+  // A webcam encodes light about as sRGB does (drawn last: the draws above keep their values).
+  s.gamma = rng.uniform(0.4, 0.5);
   return s;
 }
 

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
@@ -66,6 +68,42 @@ TEST(EdgeDetector, FindsAStepWithSubPixelPositionAndDirection)
   }
   detector.detect(cv::Mat(20, 20, CV_8UC1, cv::Scalar(90)), 0.01, kNoBudget, edges);
   EXPECT_TRUE(edges.empty());
+}
+
+TEST(EdgeDetector, PlacesABlurredEdgeOfAGammaEncodedFrameWhereItsLightCrossesHalfWay)
+{
+  // A step of light at x = 30.3 (a dark bore beside a lit face), blurred by the lens
+  // (sigma 2 px), encoded with a webcam's gamma of 0.45, then filtered as the detector filters.
+  const double edge = 30.3;
+  const double gamma = 0.45;
+  cv::Mat light(40, 64, CV_64FC1);
+  for (int x = 0; x < light.cols; ++x)
+    light.col(x).setTo(0.02 + 0.78 * 0.5 * (1.0 + std::erf((x - edge) / (2.0 * std::sqrt(2.0)))));
+  cv::Mat encoded;
+  cv::pow(light, gamma, encoded);
+  encoded.convertTo(encoded, CV_8UC1, 255.0);
+  cv::Mat filtered;
+  cv::GaussianBlur(encoded, filtered, cv::Size(), 1.5);
+
+  std::array<float, 256> table{};
+  for (std::size_t level = 0; level < table.size(); ++level)
+    table[level] = static_cast<float>(std::pow(level / 255.0, 1.0 / gamma));
+  const spool_vision::LinearLight linear{&encoded, table.data(), 4.5};
+  EdgeDetector detector;
+  detector.computeGradients(filtered);
+  auto meanX = [&](const spool_vision::LinearLight* in_light)
+  {
+    std::vector<EdgePoint> edges;
+    detector.extract(0.02, cv::Rect(0, 5, 64, 30), kNoBudget, edges, in_light);
+    EXPECT_FALSE(edges.empty());
+    double sum = 0.0;
+    for (const auto& e : edges)
+      sum += e.x;
+    return sum / static_cast<double>(std::max<std::size_t>(edges.size(), 1));
+  };
+  // The gradient of the encoded frame peaks on the dark side; the light crosses half-way on the edge.
+  EXPECT_LT(meanX(nullptr), edge - 0.3);
+  EXPECT_NEAR(meanX(&linear), edge, 0.05);
 }
 
 TEST(EdgeDetector, KeepsTheStrongestEdgesWithinItsBudget)
