@@ -278,20 +278,11 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   const double depth = geometry_->depthFromDiameter(2.0 * flange.r_vertical);
   constexpr double kLitWall = 0.015;  // m
   const cv::Point2d side = std::hypot(outward.x, outward.y) * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
-  // A filtered rim's gradient peaks inside it, by sigma^2 / (2 r) (Gaussian scale-space edge
-  // shift at curvature 1/r; 0.04 px at 640x480, 0.03 deg of axis read off the flange rim's
-  // ellipse centre): without the light to place them, the fit looks for the edges there.
-  const double inset = in_light ? 0.0 : 0.5 * sigma * sigma;
   Circle fitted;
-  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x - inset / semi_x,
-                                  semi_y - inset / semi_y, 0.25 * semi_y + 1.0, side, fitted) &&
+  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y,
+                                  0.25 * semi_y + 1.0, side, fitted) &&
       fitted.score >= 1.0 - params_.hough.hole_sensitivity)
-  {
     hole = fitted;
-    hole.r_horizontal = semi_x;
-    hole.r_vertical = semi_y;
-    hole.r = 0.5 * (semi_x + semi_y);
-  }
 }
 
 void SpoolDetector::findLens(SpoolDetection& result)
