@@ -70,8 +70,9 @@ private:
   CameraIntrinsics lens_;
   cv::Mat undistorted_;  ///< undistortionTable(lens_); empty: edges stay where the frame has them
   cv::Mat gx_, gy_, mag_;
-  std::vector<int> strengths_;  ///< squared gradient magnitude of each extracted edge
-  std::vector<int> selection_;  ///< scratch for the budget's nth_element
+  std::vector<short> column_sum_, column_diff_;  ///< one row's vertical Sobel taps, padded by 1
+  std::vector<int> strengths_;                   ///< squared gradient magnitude of each extracted edge
+  std::vector<int> selection_;                   ///< scratch for the budget's nth_element
 };
 
 /// Where a spool's back flange appears behind a front flange rim (x, y, r) seen through a

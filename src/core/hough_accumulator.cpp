@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
+#include "cpu_dispatch.h"
 #include "spool_vision/camera_model.h"
 
 namespace spool_vision
@@ -45,6 +46,45 @@ bool radial(T vx, T vy, T d, const EdgePoint& e, float sign)
 {
   const T along = vx * e.dx + vy * e.dy;
   return (sign == 0.0f ? std::abs(along) : -sign * along) >= kMinRadialAlignment * d;
+}
+
+// 3x3 Sobel and squared magnitude with replicated borders, into gx, gy (CV_16S) and mag (CV_32S)
+// of gray8's size. Each row in plain passes the compiler vectorises: the column sums and
+// differences first (into `sum` and `diff`, gray8.cols + 2 each: padded by the replicated border),
+// then the row taps.
+SPOOL_VISION_PIXEL_LOOP void sobel(const cv::Mat& gray8, short* column_sum, short* column_diff, cv::Mat& gx_out,
+                                   cv::Mat& gy_out, cv::Mat& mag_out)
+{
+  const int w = gray8.cols;
+  const int h = gray8.rows;
+  for (int y = 0; y < h; ++y)
+  {
+    const uchar* __restrict up = gray8.ptr<uchar>(std::max(y - 1, 0));
+    const uchar* __restrict mid = gray8.ptr<uchar>(y);
+    const uchar* __restrict down = gray8.ptr<uchar>(std::min(y + 1, h - 1));
+    short* __restrict sum = column_sum + 1;
+    short* __restrict diff = column_diff + 1;
+    for (int x = 0; x < w; ++x)
+    {
+      sum[x] = static_cast<short>(up[x] + 2 * mid[x] + down[x]);
+      diff[x] = static_cast<short>(down[x] - up[x]);
+    }
+    sum[-1] = sum[0];
+    sum[w] = sum[w - 1];
+    diff[-1] = diff[0];
+    diff[w] = diff[w - 1];
+    short* __restrict gx = gx_out.ptr<short>(y);
+    short* __restrict gy = gy_out.ptr<short>(y);
+    int* __restrict m = mag_out.ptr<int>(y);
+    for (int x = 0; x < w; ++x)
+    {
+      const short dx = static_cast<short>(sum[x + 1] - sum[x - 1]);
+      const short dy = static_cast<short>(diff[x - 1] + 2 * diff[x] + diff[x + 1]);
+      gx[x] = dx;
+      gy[x] = dy;
+      m[x] = dx * dx + dy * dy;
+    }
+  }
 }
 }  // namespace
 
@@ -139,42 +179,21 @@ bool RimMoments::fitEllipse(double& x, double& y, double& semi_x, double& semi_y
   return true;
 }
 
+void EdgeDetector::computeGradients(const cv::Mat& gray8)
+{
+  // cv::Sobel allocates its filter engine on every call; this path reuses its buffers.
+  gx_.create(gray8.size(), CV_16S);
+  gy_.create(gray8.size(), CV_16S);
+  mag_.create(gray8.size(), CV_32S);
+  column_sum_.resize(static_cast<std::size_t>(gray8.cols + 2));
+  column_diff_.resize(static_cast<std::size_t>(gray8.cols + 2));
+  sobel(gray8, column_sum_.data(), column_diff_.data(), gx_, gy_, mag_);
+}
+
 void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges)
 {
   computeGradients(gray8);
   extract(threshold, cv::Rect(0, 0, gray8.cols, gray8.rows), max_edges, edges);
-}
-
-void EdgeDetector::computeGradients(const cv::Mat& gray8)
-{
-  // 3x3 Sobel and squared magnitude in one pass with replicated borders (cv::Sobel allocates
-  // its filter engine on every call; this path reuses its buffers).
-  const int w = gray8.cols;
-  const int h = gray8.rows;
-  gx_.create(h, w, CV_16S);
-  gy_.create(h, w, CV_16S);
-  mag_.create(h, w, CV_32S);
-  for (int y = 0; y < h; ++y)
-  {
-    const uchar* up = gray8.ptr<uchar>(std::max(y - 1, 0));
-    const uchar* mid = gray8.ptr<uchar>(y);
-    const uchar* down = gray8.ptr<uchar>(std::min(y + 1, h - 1));
-    short* gx = gx_.ptr<short>(y);
-    short* gy = gy_.ptr<short>(y);
-    int* m = mag_.ptr<int>(y);
-    auto at = [&](int x, int l, int r)
-    {
-      const int dx = (up[r] + 2 * mid[r] + down[r]) - (up[l] + 2 * mid[l] + down[l]);
-      const int dy = (down[l] + 2 * down[x] + down[r]) - (up[l] + 2 * up[x] + up[r]);
-      gx[x] = static_cast<short>(dx);
-      gy[x] = static_cast<short>(dy);
-      m[x] = dx * dx + dy * dy;
-    };
-    at(0, 0, std::min(1, w - 1));
-    for (int x = 1; x + 1 < w; ++x)
-      at(x, x - 1, x + 1);
-    at(w - 1, std::max(w - 2, 0), w - 1);
-  }
 }
 
 void EdgeDetector::setUndistortion(const CameraIntrinsics& camera)
@@ -766,9 +785,12 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
         }
       }
   };
-  search_grid(start, max_shift, 0.5);
-  search_grid(best, 0.5, 0.1);
-  search_grid(best, 0.1, 0.02);
+  // Coarse to fine: each grid reaches a little beyond half the step before it (the soft count
+  // peaks smoothly over the band, so its best point is within half a step of the optimum).
+  search_grid(start, max_shift, 1.0);
+  search_grid(best, 0.6, 0.3);
+  search_grid(best, 0.2, 0.06);
+  search_grid(best, 0.04, 0.02);
   int count = 0;
   support(best, &count);
   if (count < 8)

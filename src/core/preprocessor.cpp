@@ -1,5 +1,7 @@
 #include "spool_vision/preprocessor.h"
 
+#include "cpu_dispatch.h"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -28,6 +30,62 @@ cv::Mat diskElement(int radius)
 {
   return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1));
 }
+
+// Separable blur of gray (CV_8U) into out (CV_8U, same size) with replicated borders in 16-bit
+// fixed point: k[-radius..radius] are 8.8 taps summing to 256; rows (CV_16U), line (cols +
+// 2 radius) and acc (cols) are scratch. The compiler vectorises both passes (the float version
+// took twice as long). Rows keep 8 fraction bits, the vertical pass 16, rounded once at the end.
+SPOOL_VISION_PIXEL_LOOP void separableBlur(const cv::Mat& gray, const std::uint16_t* k, int radius,
+                                           std::uint16_t* line_buffer, cv::Mat& rows, std::uint32_t* acc_buffer,
+                                           cv::Mat& out)
+{
+  const int w = gray.cols;
+  const int h = gray.rows;
+  for (int y = 0; y < h; ++y)
+  {
+    const uchar* in = gray.ptr<uchar>(y);
+    std::uint16_t* line = line_buffer;
+    for (int x = 0; x < radius; ++x)
+    {
+      line[x] = in[0];
+      line[radius + w + x] = in[w - 1];
+    }
+    for (int x = 0; x < w; ++x)
+      line[radius + x] = in[x];
+    // Symmetric taps: one multiply per pair of pixels.
+    std::uint16_t* row = rows.ptr<std::uint16_t>(y);
+    const std::uint16_t* centre = line + radius;
+    for (int x = 0; x < w; ++x)
+      row[x] = static_cast<std::uint16_t>(k[0] * centre[x]);
+    for (int t = 1; t <= radius; ++t)
+    {
+      const std::uint16_t wt = k[t];
+      const std::uint16_t* left = centre - t;
+      const std::uint16_t* right = centre + t;
+      for (int x = 0; x < w; ++x)
+        row[x] = static_cast<std::uint16_t>(row[x] + wt * (left[x] + right[x]));
+    }
+  }
+  for (int y = 0; y < h; ++y)
+  {
+    std::uint32_t* acc = acc_buffer;
+    const std::uint16_t* centre = rows.ptr<std::uint16_t>(y);
+    for (int x = 0; x < w; ++x)
+      acc[x] = static_cast<std::uint32_t>(centre[x]) * k[0];
+    for (int t = 1; t <= radius; ++t)
+    {
+      const std::uint32_t wt = k[t];
+      const std::uint16_t* above = rows.ptr<std::uint16_t>(std::max(y - t, 0));
+      const std::uint16_t* below = rows.ptr<std::uint16_t>(std::min(y + t, h - 1));
+      for (int x = 0; x < w; ++x)
+        acc[x] += (static_cast<std::uint32_t>(above[x]) + below[x]) * wt;
+    }
+    uchar* dst = out.ptr<uchar>(y);
+    for (int x = 0; x < w; ++x)
+      dst[x] = static_cast<uchar>((acc[x] + 32768u) >> 16);
+  }
+}
+
 }  // namespace
 
 Preprocessor::Preprocessor(const PreprocessParams& params, double focal_length)
@@ -62,61 +120,14 @@ void Preprocessor::setParams(const PreprocessParams& params, double focal_length
 
 void Preprocessor::gaussian(const cv::Mat& gray, cv::Mat& out)
 {
-  // Separable blur with replicated borders in 16-bit fixed point, written out so that the
-  // per-frame path reuses its buffers (cv::GaussianBlur allocates on every call) and the compiler
-  // vectorises both passes (the float version took twice as long). Rows keep 8 fraction bits, the
-  // vertical pass 16, rounded once at the end.
+  // Written out so that the per-frame path reuses its buffers (cv::GaussianBlur allocates on every
+  // call).
   const int radius = static_cast<int>(kernel_.size() / 2);
-  const int w = gray.cols;
-  const int h = gray.rows;
-  rows_.create(h, w, CV_16U);
-  line_.resize(static_cast<size_t>(w + 2 * radius));
-  acc_.resize(static_cast<size_t>(w));
-  const std::uint16_t* k = kernel_.data() + radius;
-  for (int y = 0; y < h; ++y)
-  {
-    const uchar* in = gray.ptr<uchar>(y);
-    std::uint16_t* line = line_.data();
-    for (int x = 0; x < radius; ++x)
-    {
-      line[x] = in[0];
-      line[radius + w + x] = in[w - 1];
-    }
-    for (int x = 0; x < w; ++x)
-      line[radius + x] = in[x];
-    // Symmetric taps: one multiply per pair of pixels.
-    std::uint16_t* row = rows_.ptr<std::uint16_t>(y);
-    const std::uint16_t* centre = line + radius;
-    for (int x = 0; x < w; ++x)
-      row[x] = static_cast<std::uint16_t>(k[0] * centre[x]);
-    for (int t = 1; t <= radius; ++t)
-    {
-      const std::uint16_t wt = k[t];
-      const std::uint16_t* left = centre - t;
-      const std::uint16_t* right = centre + t;
-      for (int x = 0; x < w; ++x)
-        row[x] = static_cast<std::uint16_t>(row[x] + wt * (left[x] + right[x]));
-    }
-  }
-  out.create(h, w, CV_8U);
-  for (int y = 0; y < h; ++y)
-  {
-    std::uint32_t* acc = acc_.data();
-    const std::uint16_t* centre = rows_.ptr<std::uint16_t>(y);
-    for (int x = 0; x < w; ++x)
-      acc[x] = static_cast<std::uint32_t>(centre[x]) * k[0];
-    for (int t = 1; t <= radius; ++t)
-    {
-      const std::uint32_t wt = k[t];
-      const std::uint16_t* above = rows_.ptr<std::uint16_t>(std::max(y - t, 0));
-      const std::uint16_t* below = rows_.ptr<std::uint16_t>(std::min(y + t, h - 1));
-      for (int x = 0; x < w; ++x)
-        acc[x] += (static_cast<std::uint32_t>(above[x]) + below[x]) * wt;
-    }
-    uchar* dst = out.ptr<uchar>(y);
-    for (int x = 0; x < w; ++x)
-      dst[x] = static_cast<uchar>((acc[x] + 32768u) >> 16);
-  }
+  rows_.create(gray.size(), CV_16U);
+  line_.resize(static_cast<size_t>(gray.cols + 2 * radius));
+  acc_.resize(static_cast<size_t>(gray.cols));
+  out.create(gray.size(), CV_8U);
+  separableBlur(gray, kernel_.data() + radius, radius, line_.data(), rows_, acc_.data(), out);
 }
 
 void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray)
