@@ -93,6 +93,13 @@ private:
   /// behind the lit bore wall, so a free fit comes out small and off centre); kept when its
   /// support passes hole_sensitivity.
   void measureBoreAtKnownSize(SpoolDetection& result);
+  /// holes_: the hole rims among hole_edges_ (hole_hough_), less those scoring under
+  /// weak_hole_score whose disc does not differ from the face by bore_contrast.
+  void detectHoles(const HoughSearch& hole_search);
+  /// How much a disc of radius `r` px about `centre` (undistorted pixels) differs from the face
+  /// around it, read where the lens puts it in the frame (fraction of full scale, 0 when not the
+  /// same way on all four sides).
+  double boreContrast(const cv::Point2d& centre, double r) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
 

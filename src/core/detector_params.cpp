@@ -130,6 +130,9 @@ std::vector<ParamSpec> buildSpecs()
              "spool_evidence bore: least rim score of a flange taken without a hole rim"),
       number("bore_contrast", FIELD(matcher.bore_contrast), 0.0, 1.0, "fraction of full scale",
              "spool_evidence bore: least difference between the bore disc and the face around it"),
+      number("weak_hole_score", FIELD(matcher.weak_hole_score), 0.0, 1.0, "",
+             "a hole rim scoring below this counts only where its disc also differs from the face by "
+             "bore_contrast (0 = every hole rim counts)"),
       number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 0.1, "rad",
              "hole centre within this view angle of the flange centre on each axis (thesis: 2 px at f = 200 px)"),
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",

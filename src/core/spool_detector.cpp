@@ -184,7 +184,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
       return;
     edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()),
                            edgeBudget(preprocessed_.size()), hole_edges_);
-    hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
+    detectHoles(hole_search);
     const Circle& target = flanges_[order_.front()];
     take(target, matcher_.matchHole(target, holes_));
     return;
@@ -366,6 +366,27 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
 }
 }  // namespace
 
+double SpoolDetector::boreContrast(const cv::Point2d& centre, double r) const
+{
+  // The frame is not undistorted: look where the lens puts the disc, at its local scale.
+  const cv::Point2d seen = distortPixel(geometry_->camera(), centre);
+  const cv::Point2d edge = distortPixel(geometry_->camera(), {centre.x + r, centre.y});
+  return discContrast(preprocessed_, seen, std::hypot(edge.x - seen.x, edge.y - seen.y));
+}
+
+void SpoolDetector::detectHoles(const HoughSearch& hole_search)
+{
+  hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
+  // A faint ring is a bore only where its disc shows too: on a plate, a can's lid or a
+  // neighbour's face cut by the frame border, noise and ribs close weak rims of the bore's size.
+  const MatcherParams& mp = params_.matcher;
+  holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
+                              [&](const Circle& h) {
+                                return h.score < mp.weak_hole_score && boreContrast({h.x, h.y}, h.r) < mp.bore_contrast;
+                              }),
+               holes_.end());
+}
+
 std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch& hole_search) const
 {
   for (const std::size_t i : order_)
@@ -392,10 +413,7 @@ std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch
       {
         const cv::Point2d at(w.x + (nx > 0 ? ix * w.width / nx : 0.5 * w.width),
                              w.y + (ny > 0 ? iy * w.height / ny : 0.5 * w.height));
-        // The frame is not undistorted: look where the lens puts the disc, at its local scale.
-        const cv::Point2d seen = distortPixel(geometry_->camera(), at);
-        const cv::Point2d edge = distortPixel(geometry_->camera(), {at.x + r, at.y});
-        const double contrast = discContrast(preprocessed_, seen, std::hypot(edge.x - seen.x, edge.y - seen.y));
+        const double contrast = boreContrast(at, r);
         if (contrast > best)
         {
           best = contrast;
@@ -414,7 +432,7 @@ std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const 
   // Only edges that can lie on the hole's rim, at the hole's own threshold.
   const cv::Rect2d& w = hole_search.center_window;
   extractHoleEdges(w, hole_search.r_max + 2.0);
-  hole_hough_.detect(hole_edges_, preprocessed_.size(), hole_search, holes_);
+  detectHoles(hole_search);
   // A hole off the fitted centre may mean the fit followed the front and back flanges' joint
   // silhouette: the front rim is then measured again about the hole (the spool's axis); that
   // pair too must pass the concentric rule, and it must explain the fit.

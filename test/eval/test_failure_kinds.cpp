@@ -133,3 +133,38 @@ TEST(FailureKinds, PullerRodAndMotionBlurOnTheApproach)
   s.motion_blur_radial = true;
   expectAtEveryResolution(at(s, 0.75, 3 * kDeg));
 }
+
+// False spools of the main and negatives sets at the small sizes (tuning seeds): a plate, or a
+// neighbour whose face centre is just out of view, taken as a flange with a faint ring of the
+// bore's size inside it. No spool's centre is in view, so the answer is no spool; with every weak
+// ring counting (weak_hole_score 0) each frame was reported as one.
+TEST(FailureKinds, FaintRingWithoutABoreDiscIsNoHole)
+{
+  struct Frame
+  {
+    FrameSet set;
+    const char* name;
+    int index;
+    int count;
+    int width;
+  };
+  for (const Frame& f :
+       {Frame{FrameSet::kNegatives, "negatives", 14, 150, 160}, Frame{FrameSet::kMain, "main", 34, 300, 160},
+        Frame{FrameSet::kNegatives, "negatives", 6, 100, 320}})
+  {
+    SCOPED_TRACE(std::string(f.name) + " #" + std::to_string(f.index) + " at " + std::to_string(f.width) + " columns");
+    SceneParams scene;
+    CameraPose pose;
+    spool_vision::setFrame(f.set, 11, f.index, f.count, scene, pose);
+    const SpoolRenderer renderer(spool_vision::setCamera(f.set, {f.width, f.width * 3 / 4}));
+    const RenderedFrame frame = renderer.render(scene, pose);
+    ASSERT_FALSE(frame.truth.spool_centre_in_view);
+    SpoolDetector detector;
+    detector.setCamera(renderer.camera());
+    EXPECT_FALSE(detector.detect(frame.image, PixelFormat::kBgr8).detected);
+    spool_vision::DetectorParams every_ring;
+    every_ring.matcher.weak_hole_score = 0.0;
+    detector.setParams(every_ring);
+    EXPECT_TRUE(detector.detect(frame.image, PixelFormat::kBgr8).detected);
+  }
+}
