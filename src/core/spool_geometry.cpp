@@ -1,6 +1,7 @@
 #include "spool_vision/spool_geometry.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -111,16 +112,25 @@ bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Po
   Eigen::Vector3d p(position.z / ray.z(), axis[0] / axis[2], axis[1] / axis[2]);
   // At most ~400 points: the fit has three unknowns, and its cost stays a fraction of the Hough's.
   const std::size_t stride = std::max<std::size_t>(1, rim.size() / 400);
-  auto residual = [&](const Eigen::Vector3d& q, const cv::Point2f& u)
+  // The rim's plane for unknowns q: its centre c and unit normal n (computed once per q, not per
+  // point: this fit is a tenth of a frame at 160x120).
+  struct Plane
   {
-    const Eigen::Vector3d c = q.x() * ray;
-    const Eigen::Vector3d n = Eigen::Vector3d(q.y(), q.z(), 1.0).normalized();
-    const Eigen::Vector3d r((u.x - camera_.cx) / camera_.fx, (u.y - camera_.cy) / camera_.fy, 1.0);
-    const double along = n.dot(r);
+    Eigen::Vector3d c;
+    Eigen::Vector3d n;
+  };
+  auto plane = [&](const Eigen::Vector3d& q) {
+    return Plane{q.x() * ray, Eigen::Vector3d(q.y(), q.z(), 1.0).normalized()};
+  };
+  // px, the rim point's distance from the 3D circle in its plane, at the circle's scale; r is the
+  // point's ray.
+  auto residual = [&](const Plane& at, const Eigen::Vector3d& r)
+  {
+    const double along = at.n.dot(r);
     if (!(std::abs(along) > 1e-9))
       return std::numeric_limits<double>::quiet_NaN();
-    const Eigen::Vector3d x = (n.dot(c) / along) * r;
-    return ((x - c).norm() - radius) * camera_.fy / c.z();
+    const Eigen::Vector3d x = (at.n.dot(at.c) / along) * r;
+    return ((x - at.c).norm() - radius) * camera_.fy / at.c.z();
   };
   const double band = std::max(1.5, 0.01 * camera_.fy * radius / p.x());
   constexpr int kIterations = 6;
@@ -130,19 +140,27 @@ bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Po
     Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
     Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
     int used = 0;
+    // Forward differences: the plane at p and at p moved along each unknown.
+    const Plane here = plane(p);
+    std::array<Plane, 3> moved_plane;
+    Eigen::Vector3d moved_by;
+    for (int k = 0; k < 3; ++k)
+    {
+      Eigen::Vector3d moved = p;
+      moved(k) += kStep * (k == 0 ? p.x() : 1.0);
+      moved_plane[static_cast<std::size_t>(k)] = plane(moved);
+      moved_by(k) = moved(k) - p(k);
+    }
     for (std::size_t i = 0; i < rim.size(); i += stride)
     {
-      const double e = residual(p, rim[i]);
+      const Eigen::Vector3d r((rim[i].x - camera_.cx) / camera_.fx, (rim[i].y - camera_.cy) / camera_.fy, 1.0);
+      const double e = residual(here, r);
       // The first pass takes a wider band: the start (rimPose()) may be a few px off the rim.
       if (!(std::abs(e) <= (iteration == 0 ? 3.0 : 1.0) * band))
         continue;
       Eigen::Vector3d j;
       for (int k = 0; k < 3; ++k)
-      {
-        Eigen::Vector3d moved = p;
-        moved(k) += kStep * (k == 0 ? p.x() : 1.0);
-        j(k) = (residual(moved, rim[i]) - e) / (moved(k) - p(k));
-      }
+        j(k) = (residual(moved_plane[static_cast<std::size_t>(k)], r) - e) / moved_by(k);
       if (!j.allFinite())
         continue;
       jtj += j * j.transpose();
