@@ -96,9 +96,16 @@ public:
   /// plus radius error (px), in cht mode the strongest (the thesis baseline has no pairing rule).
   std::optional<Circle> matchHole(const Circle& flange, const std::vector<Circle>& holes) const;
 
-  /// Indices of `flanges`, nearest `reference` first, the distance divided by the rim score:
-  /// the order in which candidates are tried as the target (the robot wants the spool in front
-  /// of the puller). Reuses `order`'s memory.
+  /// A rim score from which a rim counts as whole: real rims score 0.8-1, circles made of arcs
+  /// of several objects 0.2-0.6.
+  static constexpr double kSolidRimScore = 0.8;
+  /// How far a candidate centred at `centre` (px) is from being the target: its horizontal
+  /// distance from the `reference` pixel (the order of |bearing|, the target rule of DESIGN.md
+  /// §5), divided by its rim `score` relative to kSolidRimScore (at most 1): a weak circle must be
+  /// nearer in proportion to its missing support, two solid rims are ordered by bearing alone.
+  static double targetCost(const cv::Point2d& centre, double score, const cv::Point2d& reference);
+  /// Indices of `flanges` by targetCost(), lowest first: the order in which candidates are tried
+  /// as the target (the robot wants the spool in front of the puller). Reuses `order`'s memory.
   static void orderByReference(const std::vector<Circle>& flanges, const cv::Point2d& reference,
                                std::vector<std::size_t>& order);
 

@@ -124,16 +124,20 @@ std::optional<Circle> ConcentricMatcher::matchHole(const Circle& flange, const s
   return best;
 }
 
+double ConcentricMatcher::targetCost(const cv::Point2d& centre, double score, const cv::Point2d& reference)
+{
+  // Arcs of several objects can fake a weak circle right in the middle of the frame: one half as
+  // well supported as a solid rim must be twice as near to win.
+  return std::hypot(centre.x - reference.x, centre.y - reference.y) / std::clamp(score / kSolidRimScore, 1e-3, 1.0);
+}
+
 void ConcentricMatcher::orderByReference(const std::vector<Circle>& flanges, const cv::Point2d& reference,
                                          std::vector<std::size_t>& order)
 {
   order.clear();
   for (std::size_t i = 0; i < flanges.size(); ++i)
     order.push_back(i);
-  // Distance weighted by support: arcs of several objects can fake a weak circle right in the
-  // middle of the frame, and a candidate half as well supported must be twice as close to win.
-  auto cost = [&](std::size_t i)
-  { return std::hypot(flanges[i].x - reference.x, flanges[i].y - reference.y) / std::max(flanges[i].score, 1e-3); };
+  auto cost = [&](std::size_t i) { return targetCost({flanges[i].x, flanges[i].y}, flanges[i].score, reference); };
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return cost(a) < cost(b); });
 }
 

@@ -191,9 +191,9 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
   }
   // MCHT: a flange is a spool only with a concentric hole of the right size, so false circles
   // (arcs of neighbours, shelf edges, round objects without a bore) do not become the target.
-  // The target is the spool whose hole (its axis) is nearest the reference, the distance
-  // divided by the rim score as in orderByReference(); candidates are tried in that order, and
-  // one that cannot beat the best so far even with a perfect rim is skipped.
+  // The target is the spool whose hole (its axis) is nearest the reference in bearing, weighted
+  // by the rim score (ConcentricMatcher::targetCost()); candidates are tried in that order, and
+  // one that cannot beat the best so far even with a solid rim is skipped.
   std::optional<SpoolMatch> best;
   double best_cost = 0.0;
   for (const std::size_t i : order_)
@@ -209,8 +209,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     const std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
     if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y))
       continue;
-    const double cost =
-        std::hypot(match->hole->x - reference.x, match->hole->y - reference.y) / std::max(match->flange.score, 1e-3);
+    const double cost = ConcentricMatcher::targetCost({match->hole->x, match->hole->y}, match->flange.score, reference);
     if (!best || cost < best_cost)
     {
       best = match;

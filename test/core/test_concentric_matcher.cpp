@@ -101,9 +101,12 @@ TEST(ConcentricMatcher, CandidatesAreTriedNearestTheReferenceFirst)
   ConcentricMatcher::orderByReference({circle(20, 60, 50, 0.9), circle(90, 62, 50, 0.5), circle(150, 60, 50, 0.7)},
                                       {80, 50}, order);
   EXPECT_EQ(order, (std::vector<std::size_t>{1, 0, 2}));
-  // A weak circle must be nearer in proportion to its missing support: 20 px at 0.25 costs 80,
-  // 60 px at 1.0 costs 60.
+  // A weak circle must be nearer in proportion to its missing support: 20 px at 0.25 (0.3125 of a
+  // solid rim) costs 64, 60 px at 1.0 costs 60.
   ConcentricMatcher::orderByReference({circle(100, 50, 50, 0.25), circle(140, 50, 50, 1.0)}, {80, 50}, order);
+  EXPECT_EQ(order, (std::vector<std::size_t>{1, 0}));
+  // Two solid rims (kSolidRimScore and up) by distance alone: 27 px at 0.85 before 30 px at 1.0.
+  ConcentricMatcher::orderByReference({circle(110, 50, 50, 1.0), circle(53, 50, 50, 0.85)}, {80, 50}, order);
   EXPECT_EQ(order, (std::vector<std::size_t>{1, 0}));
   ConcentricMatcher::orderByReference({}, {80, 50}, order);
   EXPECT_TRUE(order.empty());
