@@ -66,13 +66,22 @@ private:
   static void placeInLinearLight(const LinearLight& linear, std::vector<EdgePoint>& edges);
   /// Keeps the strongest max_edges of `edges` (strengths_ alongside), in their order.
   void keepStrongest(std::size_t max_edges, std::vector<EdgePoint>& edges);
+  /// The squared-magnitude threshold extract() applies in `area`: `t2`, or where more than
+  /// kCandidatesPerEdge * max_edges pixels of it reach t2 (noise, dense clutter), the squared
+  /// magnitude that about that many of them reach (a histogram of kMagnitudeBins). Each pixel
+  /// past the threshold costs a square root and a suppression test, and the budget keeps only
+  /// the strongest edges anyway; frames below the limit keep `t2` (their edges are unchanged).
+  int boundedThreshold(const cv::Rect& area, int t2, std::size_t max_edges);
+  static constexpr std::size_t kCandidatesPerEdge = 8;
+  static constexpr int kMagnitudeBins = 1024;
 
   CameraIntrinsics lens_;
   cv::Mat undistorted_;  ///< undistortionTable(lens_); empty: edges stay where the frame has them
   cv::Mat gx_, gy_, mag_;
-  std::vector<short> column_sum_, column_diff_;  ///< one row's vertical Sobel taps, padded by 1
-  std::vector<int> strengths_;                   ///< squared gradient magnitude of each extracted edge
-  std::vector<int> selection_;                   ///< scratch for the budget's nth_element
+  std::vector<short> column_sum_, column_diff_;   ///< one row's vertical Sobel taps, padded by 1
+  std::vector<int> strengths_;                    ///< squared gradient magnitude of each extracted edge
+  std::vector<int> selection_;                    ///< scratch for the budget's nth_element
+  std::vector<std::size_t> magnitude_histogram_;  ///< boundedThreshold()'s, kMagnitudeBins
 };
 
 /// Where a spool's back flange appears behind a front flange rim (x, y, r) seen through a

@@ -273,7 +273,7 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
   // The outermost rows and columns have no neighbour on one side for the suppression.
   const cv::Rect area = rawRoi(roi) & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
-  const int t2 = static_cast<int>(t * t);
+  const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();
   for (int y = area.y; y < area.y + area.height; ++y)
   {
@@ -311,6 +311,44 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
     placeInLinearLight(*linear, edges);
   if (!undistorted_.empty() && undistorted_.size() == mag_.size())
     undistort(edges);
+}
+
+int EdgeDetector::boundedThreshold(const cv::Rect& area, int t2, std::size_t max_edges)
+{
+  const std::size_t limit = max_edges > std::numeric_limits<std::size_t>::max() / kCandidatesPerEdge
+                                ? std::numeric_limits<std::size_t>::max()
+                                : kCandidatesPerEdge * max_edges;
+  std::size_t above = 0;
+  int strongest = t2;
+  for (int y = area.y; y < area.y + area.height; ++y)
+  {
+    const int* m = mag_.ptr<int>(y);
+    for (int x = area.x; x < area.x + area.width; ++x)
+    {
+      above += m[x] >= t2 ? 1u : 0u;
+      strongest = std::max(strongest, m[x]);
+    }
+  }
+  if (above <= limit)
+    return t2;
+  const double bin_width = (static_cast<double>(strongest) - t2) / kMagnitudeBins + 1.0;
+  magnitude_histogram_.assign(kMagnitudeBins, 0);
+  for (int y = area.y; y < area.y + area.height; ++y)
+  {
+    const int* m = mag_.ptr<int>(y);
+    for (int x = area.x; x < area.x + area.width; ++x)
+      if (m[x] >= t2)
+        ++magnitude_histogram_[static_cast<std::size_t>((m[x] - t2) / bin_width)];
+  }
+  // From the strongest bin down until the limit is reached; that bin's lower edge is the threshold.
+  std::size_t kept = 0;
+  for (int bin = kMagnitudeBins - 1; bin > 0; --bin)
+  {
+    kept += magnitude_histogram_[static_cast<std::size_t>(bin)];
+    if (kept >= limit)
+      return t2 + static_cast<int>(std::ceil(bin * bin_width));
+  }
+  return t2;
 }
 
 void EdgeDetector::placeInLinearLight(const LinearLight& linear, std::vector<EdgePoint>& edges)

@@ -126,6 +126,24 @@ TEST(EdgeDetector, KeepsTheStrongestEdgesWithinItsBudget)
   EXPECT_EQ(edges.size(), 5u);
 }
 
+TEST(EdgeDetector, ANoiseFrameKeepsItsStrongestEdgesAtABoundedCost)
+{
+  // Faint noise passes the threshold almost everywhere (far more than 8 candidates per edge of
+  // the budget, so the threshold rises); a strong step across it must still be what is kept.
+  cv::Mat img(120, 160, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(img, cv::RNG::UNIFORM, 100, 120);
+  img(cv::Rect(80, 0, 80, 120)) += cv::Scalar(100);
+  EdgeDetector detector;
+  std::vector<EdgePoint> edges;
+  detector.detect(img, 0.005, kNoBudget, edges);
+  ASSERT_GT(edges.size(), 8u * 118u);
+  detector.detect(img, 0.005, 118, edges);
+  ASSERT_EQ(edges.size(), 118u);
+  for (const auto& e : edges)
+    EXPECT_NEAR(e.x, 79.5, 1.0);
+}
+
 TEST(HoughAccumulator, FindsADarkCircleWithSubPixelAccuracy)
 {
   const cv::Mat img = drawSceneGray({320, 240}, {{161.3, 118.7, 62.4, 0}});
