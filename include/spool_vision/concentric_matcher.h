@@ -99,10 +99,12 @@ public:
   /// A rim score from which a rim counts as whole: real rims score 0.8-1, circles made of arcs
   /// of several objects 0.2-0.6.
   static constexpr double kSolidRimScore = 0.8;
-  /// How far a candidate centred at `centre` (px) is from being the target: its horizontal
-  /// distance from the `reference` pixel (the order of |bearing|, the target rule of DESIGN.md
-  /// §5), divided by its rim `score` relative to kSolidRimScore (at most 1): a weak circle must be
-  /// nearer in proportion to its missing support, two solid rims are ordered by bearing alone.
+  /// How far a candidate centred at `centre` (px) is from being the target: its distance from
+  /// the `reference` pixel (spools on one shelf share a row, so this orders them by |bearing|,
+  /// the target rule of DESIGN.md §5; the vertical part keeps a circle far above the puller from
+  /// winning), divided by its rim `score` relative to kSolidRimScore (at most 1): a weak circle
+  /// must be nearer in proportion to its missing support, two solid rims are ordered by distance
+  /// alone.
   static double targetCost(const cv::Point2d& centre, double score, const cv::Point2d& reference);
   /// Indices of `flanges` by targetCost(), lowest first: the order in which candidates are tried
   /// as the target (the robot wants the spool in front of the puller). Reuses `order`'s memory.

@@ -1,13 +1,13 @@
 #include "spool_vision/preprocessor.h"
 
-#include "cpu_dispatch.h"
-
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
 #include <opencv2/imgproc.hpp>
+
+#include "cpu_dispatch.h"
 
 namespace spool_vision
 {
