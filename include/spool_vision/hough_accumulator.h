@@ -213,6 +213,7 @@ private:
   double cell_ = 1.0;
   std::vector<Peak> peaks_;
   std::vector<float> histogram_;
+  std::vector<float> vote_weights_;  ///< vote(): cell / r per radius step
   std::vector<double> scores_;
   std::vector<EdgePoint> near_;  ///< refine(), fitCentreAtRadius(): the edges near the circle
 };

@@ -39,13 +39,15 @@ float centreSign(Polarity polarity)
   return 0.0f;
 }
 
-// True when an edge at offset (vx, vy), |offset| = d, from a centre has its gradient along the
+// True when an edge at offset (vx, vy), |offset|^2 = d2, from a centre has its gradient along the
 // radius, pointing the way `sign` (centreSign()) wants: away from the centre for a dark disc.
+// Squares are compared, so the callers' inner loops take no square root for edges it rejects.
 template <typename T>
-bool radial(T vx, T vy, T d, const EdgePoint& e, float sign)
+bool radial(T vx, T vy, T d2, const EdgePoint& e, float sign)
 {
   const T along = vx * e.dx + vy * e.dy;
-  return (sign == 0.0f ? std::abs(along) : -sign * along) >= kMinRadialAlignment * d;
+  const T toward = sign == 0.0f ? std::abs(along) : -sign * along;
+  return toward >= 0 && toward * toward >= kMinRadialAlignment * kMinRadialAlignment * d2;
 }
 
 // 3x3 Sobel and squared magnitude with replicated borders, into gx, gy (CV_16S) and mag (CV_32S)
@@ -90,14 +92,20 @@ SPOOL_VISION_PIXEL_LOOP void sobel(const cv::Mat& gray8, short* column_sum, shor
 
 double visibleRimFraction(double x, double y, double r, cv::Size image_size, const BackFlange& back)
 {
-  // Unit-circle samples computed once; this runs for every radius bin of every peak.
-  static const auto kUnit = []
+  // Unit-circle samples computed once, cosines and sines apart: this runs for every radius bin of
+  // every peak, and the loop below vectorises over plain arrays.
+  struct UnitCircle
   {
-    std::array<cv::Point2d, kRimSamples> unit;
-    for (int i = 0; i < kRimSamples; ++i)
+    std::array<double, kRimSamples> cos, sin;
+  };
+  static const UnitCircle kUnit = []
+  {
+    UnitCircle unit;
+    for (std::size_t i = 0; i < kRimSamples; ++i)
     {
-      const double a = (i + 0.5) * 2.0 * kPi / kRimSamples;
-      unit[static_cast<size_t>(i)] = {std::cos(a), std::sin(a)};
+      const double a = (static_cast<double>(i) + 0.5) * 2.0 * kPi / kRimSamples;
+      unit.cos[i] = std::cos(a);
+      unit.sin[i] = std::sin(a);
     }
     return unit;
   }();
@@ -108,11 +116,13 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size, con
   const double max_x = image_size.width - 0.5;
   const double max_y = image_size.height - 0.5;
   int inside = 0;
-  for (const auto& u : kUnit)
+  for (std::size_t i = 0; i < kRimSamples; ++i)
   {
-    const double px = x + r * u.x;
-    const double py = y + r * u.y;
-    inside += (px >= -0.5 && px <= max_x && py >= -0.5 && py <= max_y && !back.hides(x, y, r, px, py)) ? 1 : 0;
+    const double px = x + r * kUnit.cos[i];
+    const double py = y + r * kUnit.sin[i];
+    // `&`, not `&&`: no branch per sample.
+    const bool in_image = (px >= -0.5) & (px <= max_x) & (py >= -0.5) & (py <= max_y);
+    inside += in_image && !back.hides(x, y, r, px, py) ? 1 : 0;
   }
   return static_cast<double>(inside) / kRimSamples;
 }
@@ -467,6 +477,13 @@ void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSear
   const float oy = static_cast<float>(origin_.y);
   const float r0 = static_cast<float>(search.r_min);
   float* data = votes_.ptr<float>();
+  // 1/r weighting makes a full circle worth ~2*pi whatever its size; one weight per radius step,
+  // shared by every edge (a division per vote cost a fifth of the voting).
+  vote_weights_.resize(static_cast<std::size_t>(steps));
+  float r = r0;
+  for (int i = 0; i < steps; ++i, r += cell)
+    vote_weights_[static_cast<std::size_t>(i)] = cell / r;
+  const float* weight = vote_weights_.data();
 
   for (const EdgePoint& e : edges)
   {
@@ -475,15 +492,13 @@ void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSear
     float ay = (e.y + sign * r0 * e.dy - oy) * inv_cell;
     const float sx = sign * e.dx;
     const float sy = sign * e.dy;
-    float r = r0;
-    for (int i = 0; i < steps; ++i, ax += sx, ay += sy, r += cell)
+    for (int i = 0; i < steps; ++i, ax += sx, ay += sy)
     {
       const int ix = static_cast<int>(ax + 0.5f);
       const int iy = static_cast<int>(ay + 0.5f);
       if (ix < 0 || iy < 0 || ix >= cols || iy >= rows)
         continue;
-      // 1/r weighting makes a full circle worth ~2*pi whatever its size.
-      data[iy * cols + ix] += cell / r;
+      data[iy * cols + ix] += weight[i];
     }
   }
 }
@@ -566,10 +581,9 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
     const float d2 = vx * vx + vy * vy;
     if (d2 < lo2 || d2 > hi2)
       continue;
-    const float d = std::sqrt(d2);
-    if (!radial(vx, vy, d, e, sign))
+    if (!radial(vx, vy, d2, e, sign))
       continue;
-    histogram_[static_cast<size_t>(d - lo + 0.5)] += 1.0f;
+    histogram_[static_cast<size_t>(std::sqrt(d2) - lo + 0.5)] += 1.0f;
   }
 
   // Score each radius (3-bin window) by its supported fraction of the visible rim. Among the
@@ -689,7 +703,7 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
       const double vx = e.x - cx;
       const double vy = e.y - cy;
       const double rho2 = vx * vx * inv_x2 + vy * vy * inv_y2;
-      if (rho2 < rho_min2 || rho2 > rho_max2 || !radial(vx, vy, std::sqrt(vx * vx + vy * vy), e, sign))
+      if (rho2 < rho_min2 || rho2 > rho_max2 || !radial(vx, vy, vx * vx + vy * vy, e, sign))
         continue;
       m.add(vx * scale, vy * scale);
     }
@@ -760,8 +774,9 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
     {
       const double vx = e.x - centre.x;
       const double vy = e.y - centre.y;
-      const double d = std::sqrt(vx * vx + vy * vy);
-      if (std::abs(d - r) > band || !radial(vx, vy, d, e, sign))
+      const double d2 = vx * vx + vy * vy;
+      const double d = std::sqrt(d2);
+      if (std::abs(d - r) > band || !radial(vx, vy, d2, e, sign))
         continue;
       sum += d;
       ++count;
@@ -796,7 +811,7 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
       const double vx = e.x - c.x;
       const double vy = e.y - c.y;
       const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
-      if (off > band || !radial(vx, vy, std::sqrt(vx * vx + vy * vy), e, sign))
+      if (off > band || !radial(vx, vy, vx * vx + vy * vy, e, sign))
         continue;
       soft += 1.0 - off / band;
       ++n;
