@@ -114,6 +114,10 @@ struct GeometryParams
   double flange_diameter = 0.35;         ///< m
   double hole_diameter = 0.036;          ///< m
   double hub_length = 0.2;               ///< m, front flange face to back flange face
+  /// m, the longest the bore may be (spools differ: about 20 cm). `aligned` checks the puller at
+  /// the bore's front and this far along its axis; a straight bore's miss is largest at an end, so
+  /// every bore up to this long is covered. 0 = the front alone (the thesis)
+  double bore_length_max = 0.22;
   double axis_height_tolerance = 0.1;    ///< m, spool axis off the puller's height (camera frame y)
   double puller_diameter = 0.031;        ///< m
   double distance_min = 0.45;            ///< m, nearest working distance (sets the largest radius)

@@ -50,7 +50,8 @@ public:
   cv::Point3d backProject(double u, double v, double depth) const;
 
   /// How far (m) the puller's axis passes from the bore's axis at the bore's front and at its
-  /// back end (hub_length along `axis`), for a bore whose front centre is `position`; the
+  /// back end (bore_length_max along `axis`: the miss along a straight bore is convex in the depth,
+  /// so a shorter bore clears wherever this one does), for a bore whose front centre is `position`; the
   /// puller runs parallel to the optical axis through (puller_offset_x, puller_offset_y).
   void pullerMiss(const cv::Point3d& position, const cv::Vec3d& axis, double& front, double& back) const;
 

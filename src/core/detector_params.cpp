@@ -149,6 +149,9 @@ std::vector<ParamSpec> buildSpecs()
              "takes spools from the shelf level it stands at (10 = off)"),
       number("hub_length", FIELD(geometry.hub_length), 0.0, 5.0, "m",
              "front to back flange face; places the hole when an oblique fit follows both flanges"),
+      number("bore_length_max", FIELD(geometry.bore_length_max), 0.0, 5.0, "m",
+             "longest bore (about 20 cm, varies between spools): aligned checks the puller's miss at the "
+             "bore's front and this far along the axis (0 = the front alone)"),
       number("puller_diameter", FIELD(geometry.puller_diameter), 0.0, 1.0, "m", "puller peg diameter"),
       number("distance_min", FIELD(geometry.distance_min), 0.05, 20.0, "m",
              "nearest working distance (sets the largest radii)"),

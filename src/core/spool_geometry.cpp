@@ -187,8 +187,8 @@ void SpoolGeometry::pullerMiss(const cv::Point3d& position, const cv::Vec3d& axi
 {
   const cv::Point2d puller(params_.puller_offset_x, params_.puller_offset_y);
   front = std::hypot(position.x - puller.x, position.y - puller.y);
-  back = std::hypot(position.x + params_.hub_length * axis[0] - puller.x,
-                    position.y + params_.hub_length * axis[1] - puller.y);
+  back = std::hypot(position.x + params_.bore_length_max * axis[0] - puller.x,
+                    position.y + params_.bore_length_max * axis[1] - puller.y);
 }
 
 double SpoolGeometry::yaw(double u, double u_ref) const

@@ -256,6 +256,28 @@ TEST(SpoolGeometry, AnAxisThatWouldTakeThePullerIntoTheBoreWallIsNotAligned)
   }
 }
 
+TEST(SpoolGeometry, AlignedAllowsForTheLongestBore)
+{
+  // 0.65 deg of tilt moves the axis 2.27 mm over a 20 cm bore (clear of t_f = 2.5 mm less the
+  // 0.1 mm margin) but 2.50 mm over a 22 cm one: the same frame is aligned only for spools whose
+  // bore is known to be at most 20 cm long.
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const cv::Vec3d centre(0.0, 0.06, 0.55);
+  SpoolDetection d;
+  d.detected = d.hole_detected = true;
+  d.flange = imagedRim(camera, centre, {std::tan(0.65 * kDeg), 0.0, 1.0}, 0.175);
+  d.hole.x = camera.cx;
+  d.hole.y = camera.cy + camera.fy * 0.06 / 0.55;
+  GeometryParams p;
+  for (const double longest : {0.22, 0.2})
+  {
+    p.bore_length_max = longest;
+    SpoolDetection measured = d;
+    SpoolGeometry(p, camera).measure(measured);
+    EXPECT_EQ(measured.aligned, longest < 0.21) << longest << " m";
+  }
+}
+
 TEST(SpoolGeometry, WithoutAHoleThePositionIsTheFlangesAndTheAxisUnknown)
 {
   SpoolDetection d = detectionAt(99.5, 59.5, 0.8);
