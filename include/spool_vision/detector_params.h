@@ -111,9 +111,9 @@ struct MatcherParams
 /// Spool, camera and alignment geometry (thesis §3.4).
 struct GeometryParams
 {
-  double flange_diameter = 0.35;         ///< m
-  double hole_diameter = 0.036;          ///< m
-  double hub_length = 0.2;               ///< m, front flange face to back flange face
+  double flange_diameter = 0.35;  ///< m
+  double hole_diameter = 0.036;   ///< m
+  double hub_length = 0.2;        ///< m, front flange face to back flange face
   /// m, the longest the bore may be (spools differ: about 20 cm). `aligned` checks the puller at
   /// the bore's front and this far along its axis; a straight bore's miss is largest at an end, so
   /// every bore up to this long is covered. 0 = the front alone (the thesis)
