@@ -25,11 +25,11 @@
 
 extern "C"
 {
-void* __libc_malloc(std::size_t size);
-void* __libc_calloc(std::size_t count, std::size_t size);
-void* __libc_realloc(void* p, std::size_t size);
-void* __libc_memalign(std::size_t alignment, std::size_t size);
-void __libc_free(void* p);
+  void* __libc_malloc(std::size_t size);
+  void* __libc_calloc(std::size_t count, std::size_t size);
+  void* __libc_realloc(void* p, std::size_t size);
+  void* __libc_memalign(std::size_t alignment, std::size_t size);
+  void __libc_free(void* p);
 }
 
 namespace
@@ -66,49 +66,49 @@ void countFree(void* p)
 // glibc declares these noexcept in C++.
 extern "C"
 {
-void* malloc(std::size_t size) noexcept
-{
-  countAllocation();
-  return __libc_malloc(size);
-}
-void* calloc(std::size_t count, std::size_t size) noexcept
-{
-  countAllocation();
-  return __libc_calloc(count, size);
-}
-void* realloc(void* p, std::size_t size) noexcept
-{
-  countAllocation();
-  return __libc_realloc(p, size);
-}
-void free(void* p) noexcept
-{
-  countFree(p);
-  __libc_free(p);
-}
-void* memalign(std::size_t alignment, std::size_t size) noexcept
-{
-  countAllocation();
-  return __libc_memalign(alignment, size);
-}
-void* aligned_alloc(std::size_t alignment, std::size_t size) noexcept
-{
-  countAllocation();
-  return __libc_memalign(alignment, size);
-}
-int posix_memalign(void** p, std::size_t alignment, std::size_t size) noexcept
-{
-  countAllocation();
-  if (alignment < sizeof(void*) || (alignment & (alignment - 1)) != 0)
-    return 22;  // EINVAL
-  *p = __libc_memalign(alignment, size);
-  return *p ? 0 : 12;  // ENOMEM
-}
-void* valloc(std::size_t size) noexcept
-{
-  countAllocation();
-  return __libc_memalign(static_cast<std::size_t>(sysconf(_SC_PAGESIZE)), size);
-}
+  void* malloc(std::size_t size) noexcept
+  {
+    countAllocation();
+    return __libc_malloc(size);
+  }
+  void* calloc(std::size_t count, std::size_t size) noexcept
+  {
+    countAllocation();
+    return __libc_calloc(count, size);
+  }
+  void* realloc(void* p, std::size_t size) noexcept
+  {
+    countAllocation();
+    return __libc_realloc(p, size);
+  }
+  void free(void* p) noexcept
+  {
+    countFree(p);
+    __libc_free(p);
+  }
+  void* memalign(std::size_t alignment, std::size_t size) noexcept
+  {
+    countAllocation();
+    return __libc_memalign(alignment, size);
+  }
+  void* aligned_alloc(std::size_t alignment, std::size_t size) noexcept
+  {
+    countAllocation();
+    return __libc_memalign(alignment, size);
+  }
+  int posix_memalign(void** p, std::size_t alignment, std::size_t size) noexcept
+  {
+    countAllocation();
+    if (alignment < sizeof(void*) || (alignment & (alignment - 1)) != 0)
+      return 22;  // EINVAL
+    *p = __libc_memalign(alignment, size);
+    return *p ? 0 : 12;  // ENOMEM
+  }
+  void* valloc(std::size_t size) noexcept
+  {
+    countAllocation();
+    return __libc_memalign(static_cast<std::size_t>(sysconf(_SC_PAGESIZE)), size);
+  }
 }
 
 namespace
@@ -235,7 +235,8 @@ TEST(Allocations, RenderedShelfFramesAt640x480Bgr8)
     pose.distance = 0.6 + 0.15 * i;
     pose.lateral = 0.01 * i;
     frames.push_back(
-        renderer.render(spool_vision::randomScene(spool_vision::SceneKind::kSpool, static_cast<std::uint64_t>(i + 3)), pose)
+        renderer
+            .render(spool_vision::randomScene(spool_vision::SceneKind::kSpool, static_cast<std::uint64_t>(i + 3)), pose)
             .image);
   }
   SpoolDetector detector;
