@@ -391,8 +391,10 @@ std::vector<BarRow> poseRows(const EvaluationResult& result, size_t group)
       { return spreadCell(m.yaw_error_deg, m.yaw_error_deg.p95, limit(b.yaw_p95_max_deg), degrees); });
   add("axis-angle error, median", [&](const QualityBars&, const Metrics& m)
       { return spreadCell(m.axis_angle_error_deg, m.axis_angle_error_deg.median, QualityBars::kNone, degrees); });
-  add("axis-angle error, 95th percentile", [&](const QualityBars& b, const Metrics& m)
-      { return spreadCell(m.axis_angle_error_deg, m.axis_angle_error_deg.p95, limit(b.axis_angle_p95_max_deg), degrees); });
+  add("axis-angle error, 95th percentile",
+      [&](const QualityBars& b, const Metrics& m) {
+        return spreadCell(m.axis_angle_error_deg, m.axis_angle_error_deg.p95, limit(b.axis_angle_p95_max_deg), degrees);
+      });
   add("aligned where the puller would touch the bore wall (frames)",
       [&](const QualityBars& b, const Metrics& m)
       {

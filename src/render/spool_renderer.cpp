@@ -789,8 +789,8 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
     rim.emplace_back(p.x(), p.y(), p.z());
   }
   const std::vector<cv::Point2d> rim_px = imagePoints(k, rim);
-  const auto inside = std::count_if(rim_px.begin(), rim_px.end(),
-                                    [&k](const cv::Point2d& q) { return insideImage(k, q.x, q.y); });
+  const auto inside =
+      std::count_if(rim_px.begin(), rim_px.end(), [&k](const cv::Point2d& q) { return insideImage(k, q.x, q.y); });
   pc.visible_fraction = static_cast<double>(inside) / kRimSamples;
   const cv::Point2d centre_px3d = imagePoint(k, c);
   pc.centre_x = centre_px3d.x;
@@ -838,8 +838,8 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
   const double qc = D * D - 4.0 * A * F;
   pc.r_vertical = 0.5 * std::sqrt(std::max(0.0, qb * qb - 4.0 * qa * qc)) / std::abs(qa);
   // The ellipse centre where the lens puts it.
-  const cv::Point2d ellipse_centre = k.distorted() ? imagePoint(k, Vec3((x0 - k.cx) / k.fx, (y0 - k.cy) / k.fy, 1.0))
-                                                   : cv::Point2d(x0, y0);
+  const cv::Point2d ellipse_centre =
+      k.distorted() ? imagePoint(k, Vec3((x0 - k.cx) / k.fx, (y0 - k.cy) / k.fy, 1.0)) : cv::Point2d(x0, y0);
   pc.x = ellipse_centre.x;
   pc.y = ellipse_centre.y;
   return pc;
@@ -1445,8 +1445,8 @@ std::string groundTruthToJson(const GroundTruth& t)
   writeXyz(out, "axis", t.axis[0], t.axis[1], t.axis[2]);
   writeField(out, "axis_angle", t.axis_angle);
   writeField(out, "axis_yaw", t.axis_yaw);
-  out << ", \"puller_clears\": " << t.puller_clears << ", \"aligned\": " << t.aligned << ", \"spool_centre_in_view\": " << t.spool_centre_in_view
-      << ", \"neighbours\": [";
+  out << ", \"puller_clears\": " << t.puller_clears << ", \"aligned\": " << t.aligned
+      << ", \"spool_centre_in_view\": " << t.spool_centre_in_view << ", \"neighbours\": [";
   for (std::size_t i = 0; i < t.neighbours.size(); ++i)
   {
     out << (i ? ", " : "");

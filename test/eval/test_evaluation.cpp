@@ -392,11 +392,11 @@ TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
   const sv::GroundTruth c = spoolAt(0.60, 0.001, 0.0, true);
   const sv::GroundTruth d = spoolAt(0.80, 0.0, 1.0 * kDeg, true);
   std::vector<sv::FrameScore> scores = {
-      sv::scoreFrame(a, measured(a, 0.55 * 1.01, 0.003, 0.7 * kDeg, true)),       // aligned, rightly
-      sv::scoreFrame(b, measured(b, 0.52, -0.012, -0.5 * kDeg, true)),            // aligned: the puller would touch
-      sv::scoreFrame(c, measured(c, 0.60 * 0.98, 0.005, 0.25 * kDeg, false)),     // aligned missed
-      sv::scoreFrame(d, measured(d, 0.80, 0.010, 3.0 * kDeg, false)),             // too far: not aligned, right
-      sv::scoreFrame(emptySlot(), sv::SpoolDetection())};                         // no spool: puller cannot clear
+      sv::scoreFrame(a, measured(a, 0.55 * 1.01, 0.003, 0.7 * kDeg, true)),    // aligned, rightly
+      sv::scoreFrame(b, measured(b, 0.52, -0.012, -0.5 * kDeg, true)),         // aligned: the puller would touch
+      sv::scoreFrame(c, measured(c, 0.60 * 0.98, 0.005, 0.25 * kDeg, false)),  // aligned missed
+      sv::scoreFrame(d, measured(d, 0.80, 0.010, 3.0 * kDeg, false)),          // too far: not aligned, right
+      sv::scoreFrame(emptySlot(), sv::SpoolDetection())};                      // no spool: puller cannot clear
   EXPECT_NEAR(scores[0].lateral_error, 0.001, 1e-12);
   EXPECT_NEAR(scores[1].axis_angle_error, -1.0 * kDeg, 1e-12);
   EXPECT_NEAR(scores[2].true_depth, 0.60, 1e-12);
@@ -410,8 +410,8 @@ TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
   EXPECT_EQ(m.axis_angle_error_deg.count, 4);
   EXPECT_NEAR(m.axis_angle_error_deg.median, 0.75, 1e-9);
   EXPECT_NEAR(m.axis_angle_error_deg.p95, 1.85, 1e-9);  // 1 + 0.85 * (2 - 1)
-  EXPECT_NEAR(m.distance_error.median, 0.005, 1e-9);     // 1%, 0, 2%, 0
-  EXPECT_EQ(m.unsafe_aligned.frames, 2);  // b and the empty slot
+  EXPECT_NEAR(m.distance_error.median, 0.005, 1e-9);    // 1%, 0, 2%, 0
+  EXPECT_EQ(m.unsafe_aligned.frames, 2);                // b and the empty slot
   EXPECT_EQ(m.unsafe_aligned.hits, 1);
   EXPECT_EQ(m.aligned_recall.frames, 2);  // a and c
   EXPECT_EQ(m.aligned_recall.hits, 1);
@@ -794,14 +794,18 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
 {
   sv::EvaluationConfig small;
   // Two setups of one size share the renders; the second, without analyses, takes fewer frames.
-  small.setups = {
-      {"seed.yaml @ 160x120", {160, 120}, config("seed.yaml"), sv::QualityBars::thesisReproduction(), {12, 6, 4, 6}, true},
-      {"default.yaml @ 160x120",
-       {160, 120},
-       config("default.yaml"),
-       sv::QualityBars::forDefault({160, 120}),
-       {6, 3, 2, 3},
-       false}};
+  small.setups = {{"seed.yaml @ 160x120",
+                   {160, 120},
+                   config("seed.yaml"),
+                   sv::QualityBars::thesisReproduction(),
+                   {12, 6, 4, 6},
+                   true},
+                  {"default.yaml @ 160x120",
+                   {160, 120},
+                   config("default.yaml"),
+                   sv::QualityBars::forDefault({160, 120}),
+                   {6, 3, 2, 3},
+                   false}};
   small.pose_repeats = 1;
   int progress_calls = 0;
   const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
@@ -848,8 +852,8 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   std::stringstream md;
   md << in.rdbuf();
   for (const char* heading : {"## Headline", "hard set", "## Pose and alignment", "distorted (C270 lens) set",
-                              "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization", "### Morphology",
-                              "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r"})
+                              "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization",
+                              "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r"})
     EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
   for (const char* png : {"filters", "binarization", "morphology", "cht_mcht", "lamps", "distance", "yaw", "tx_r"})
   {

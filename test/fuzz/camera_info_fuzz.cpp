@@ -32,8 +32,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   {
     const sv::CameraIntrinsics camera = sv::loadCameraInfoYaml(path);
     check(camera.valid(), "loaded an invalid camera");
-    bool finite = std::isfinite(camera.fx) && std::isfinite(camera.fy) && std::isfinite(camera.cx) &&
-                  std::isfinite(camera.cy);
+    bool finite =
+        std::isfinite(camera.fx) && std::isfinite(camera.fy) && std::isfinite(camera.cx) && std::isfinite(camera.cy);
     for (const double d : camera.distortion)
       finite = finite && std::isfinite(d);
     check(finite, "loaded a camera with a non-finite number");

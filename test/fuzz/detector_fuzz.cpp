@@ -31,9 +31,7 @@ constexpr std::size_t kHeaderBytes = 16;
 class Header
 {
 public:
-  Header(const std::uint8_t* data, std::size_t size) : data_(data), size_(size)
-  {
-  }
+  Header(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
   std::uint8_t byte()
   {
     return next_ < size_ && next_ < kHeaderBytes ? data_[next_++] : 0;
@@ -112,7 +110,7 @@ sv::CameraIntrinsics cameraVariant(Header& h, std::uint8_t kind, int width, int 
       break;
     case 3:  // rational_polynomial
       k.distortion = {h.signedUnit(0.5), h.signedUnit(0.5), h.signedUnit(0.02), h.signedUnit(0.02),
-                      h.signedUnit(0.5), h.signedUnit(0.5), h.signedUnit(0.5), h.signedUnit(0.5)};
+                      h.signedUnit(0.5), h.signedUnit(0.5), h.signedUnit(0.5),  h.signedUnit(0.5)};
       break;
     case 4:  // calibrated for another image size: the detector falls back to the thesis camera
       k.width += 1 + h.byte();

@@ -14,7 +14,8 @@ namespace spool_vision::fuzz
 {
 inline const std::string& writeInput(const std::uint8_t* data, std::size_t size)
 {
-  static const std::string path = [] {
+  static const std::string path = []
+  {
     const char* dir = std::getenv("TMPDIR");
     return std::string(dir && *dir ? dir : "/tmp") + "/spool_vision_fuzz_" + std::to_string(getpid()) + ".yaml";
   }();

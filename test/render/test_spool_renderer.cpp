@@ -345,8 +345,7 @@ TEST(SpoolRenderer, ThePullerClearsOnlyWithinTheClearanceAtBothEndsOfTheBore)
   {
     const double planar = 0.55;
     const double lateral = -planar * std::tan(a);
-    return renderer.groundTruth(scene,
-                                pose(std::sqrt(planar * planar + 0.06 * 0.06 + lateral * lateral), lateral, a));
+    return renderer.groundTruth(scene, pose(std::sqrt(planar * planar + 0.06 * 0.06 + lateral * lateral), lateral, a));
   };
   const sv::GroundTruth half_degree = throughTheFaceCentre(0.5 * kDeg);
   EXPECT_NEAR(half_degree.puller_miss, 0.0, 1e-12);

@@ -202,7 +202,8 @@ TEST(SpoolRenderCli, DistortedSetAndLensOption)
 {
   const fs::path root = freshDir("render_cli_lens");
   // The distorted set's lens by default; --distortion replaces it, for any set.
-  const CliRun set = spoolRender("--out " + (root / "set").string() + " --width 64 --height 48 --count 1 --set distorted");
+  const CliRun set =
+      spoolRender("--out " + (root / "set").string() + " --width 64 --height 48 --count 1 --set distorted");
   ASSERT_EQ(set.exit_code, 0) << set.errors;
   const CliRun lens = spoolRender("--out " + (root / "lens").string() +
                                   " --width 64 --height 48 --count 1 --distortion -0.1,0.02,0,0,0,0.01,0,0");
