@@ -137,6 +137,9 @@ struct GeometryParams
   /// m, taken off t_f for `aligned`: the puller's measured miss must clear the bore by this much
   /// (at 50-60 cm the miss is measured within ~0.1 mm, and a frame on the edge must not pass)
   double aligned_margin = 0.0001;
+  /// rad, `aligned` only where one pixel subtends at most this (1 / fy): from a coarser image the
+  /// spool axis is too uncertain to clear t_f over the bore (1.25 mrad at 640x480 passes)
+  double aligned_max_pixel_angle = 0.0015;
 };
 
 struct DetectorParams

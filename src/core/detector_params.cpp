@@ -182,6 +182,9 @@ std::vector<ParamSpec> buildSpecs()
       number("aligned_distance_max", FIELD(geometry.aligned_distance_max), 0.0, 20.0, "m", "insertion window, far end"),
       number("aligned_margin", FIELD(geometry.aligned_margin), 0.0, 0.01, "m",
              "aligned needs the puller's miss at both bore ends within t_f minus this (measurement error)"),
+      number("aligned_max_pixel_angle", FIELD(geometry.aligned_max_pixel_angle), 0.0, 1.0, "rad",
+             "aligned only where one pixel subtends at most this (1 / fy; 640x480: 0.00125): a coarser image "
+             "measures the spool axis too loosely to clear t_f over the bore (1 = off)"),
   };
 }
 #undef FIELD

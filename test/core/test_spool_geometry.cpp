@@ -106,6 +106,7 @@ TEST(SpoolGeometry, AlignedOnlyInTheWindowAndOnTheReference)
 {
   GeometryParams p;
   p.overlap_tolerance = 2.0 / kThesis.fy;  // 2 px
+  p.aligned_max_pixel_angle = 1.0;         // the thesis' 160x120 camera, as seed.yaml has it
   const SpoolGeometry g(p, kThesis);
   const double v55 = 59.5 + 200 * 0.06 / 0.55;
 
@@ -275,6 +276,25 @@ TEST(SpoolGeometry, AlignedAllowsForTheLongestBore)
     SpoolDetection measured = d;
     SpoolGeometry(p, camera).measure(measured);
     EXPECT_EQ(measured.aligned, longest < 0.21) << longest << " m";
+  }
+}
+
+TEST(SpoolGeometry, AlignedOnlyWhereThePixelsResolveTheAxis)
+{
+  // The same centred spool at 55 cm: aligned through a 640x480 C270 (1.25 mrad per pixel), not
+  // through its 320x240 or 160x120 modes (2.5 and 5 mrad), whose axis is too coarse to trust.
+  const cv::Vec3d centre(0.0, 0.06, 0.55);
+  for (const int width : {640, 320, 160})
+  {
+    const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(width, width * 3 / 4);
+    SpoolDetection d;
+    d.detected = d.hole_detected = true;
+    d.flange = imagedRim(camera, centre, {0.0, 0.0, 1.0}, 0.175);
+    d.hole.x = camera.cx;
+    d.hole.y = camera.cy + camera.fy * 0.06 / 0.55;
+    SpoolGeometry(GeometryParams(), camera).measure(d);
+    EXPECT_TRUE(d.overlapped) << width;
+    EXPECT_EQ(d.aligned, width == 640) << width;
   }
 }
 
