@@ -1,6 +1,7 @@
 // Stage 2: the hand-written circular Hough transform (gradient-directed, polarity-aware).
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -81,6 +82,7 @@ private:
   std::vector<short> column_sum_, column_diff_;   ///< one row's vertical Sobel taps, padded by 1
   std::vector<int> strengths_;                    ///< squared gradient magnitude of each extracted edge
   std::vector<int> selection_;                    ///< scratch for the budget's nth_element
+  std::vector<int> row_indices_;                  ///< extract(): one row's columns past the threshold
   std::vector<std::size_t> magnitude_histogram_;  ///< boundedThreshold()'s, kMagnitudeBins
 };
 
@@ -194,11 +196,13 @@ private:
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
   /// Votes on the side `sign` (centreSign) of each edge.
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search, float sign);
+  /// Radii voted for per edge: r_min, r_min + cell_, ... up to r_max.
+  int radiusSteps(const HoughSearch& search) const;
   void findPeaks(const HoughSearch& search, int max_peaks);
   bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                      const Peak& peak, double slack, const BackFlange& back, Circle& circle);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
-  /// Fills near_ with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
+  /// Fills near_ (near_count_) with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
   /// zero = all round).
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,
                   const cv::Point2d& side);
@@ -212,10 +216,35 @@ private:
   cv::Point2d origin_;  ///< image position of cell (0,0)
   double cell_ = 1.0;
   std::vector<Peak> peaks_;
+  std::vector<int> row_indices_;  ///< findPeaks(): one row's maxima along it
   std::vector<float> histogram_;
-  std::vector<float> vote_weights_;  ///< vote(): cell / r per radius step
+  std::vector<std::uint32_t> support_bins_;  ///< measureRadius(): the supporting edges' bins
+  std::vector<float> vote_weights_;          ///< vote(): cell / r per radius step
+  std::vector<int> vote_cells_;              ///< vote(): one edge's cells, one per radius step
   std::vector<double> scores_;
-  std::vector<EdgePoint> near_;  ///< refine(), fitCentreAtRadius(): the edges near the circle
+  /// refine(), fitCentreAtSize(): the edges near the circle are the first near_count_ (the
+  /// buffer only grows: gatherNear() writes every edge it reads).
+  std::vector<EdgePoint> near_;
+  std::size_t near_count_ = 0;
+  std::vector<std::uint32_t> taken_;  ///< refine(): indices into near_ of one pass's points
+  std::vector<std::uint8_t> keep_;    ///< gatherNear(), refine(): 1 per edge kept
+  struct EdgeRange
+  {
+    const EdgePoint* first;
+    const EdgePoint* last;
+    const EdgePoint* begin() const
+    {
+      return first;
+    }
+    const EdgePoint* end() const
+    {
+      return last;
+    }
+  };
+  EdgeRange nearEdges() const
+  {
+    return {near_.data(), near_.data() + near_count_};
+  }
 };
 
 /// Fraction of a circle's circumference that can show: inside an image of the given size and,

@@ -42,12 +42,122 @@ float centreSign(Polarity polarity)
 // True when an edge at offset (vx, vy), |offset|^2 = d2, from a centre has its gradient along the
 // radius, pointing the way `sign` (centreSign()) wants: away from the centre for a dark disc.
 // Squares are compared, so the callers' inner loops take no square root for edges it rejects.
+// `&`, not `&&`: the scans over every edge test this unpredictably, and a mispredicted branch
+// costs more than the second comparison.
 template <typename T>
 bool radial(T vx, T vy, T d2, const EdgePoint& e, float sign)
 {
   const T along = vx * e.dx + vy * e.dy;
   const T toward = sign == 0.0f ? std::abs(along) : -sign * along;
-  return toward >= 0 && toward * toward >= kMinRadialAlignment * kMinRadialAlignment * d2;
+  return (toward >= 0) & (toward * toward >= kMinRadialAlignment * kMinRadialAlignment * d2);
+}
+
+// Adds each edge's votes along its gradient (the side `sign`, centreSign()) for the centres at
+// r0 + i cell, i < steps, with weight[i], to `data`: size.width x size.height cells from `origin`
+// (px), then `steps` spare cells that take the votes falling off the accumulator. The cells of one
+// edge are found first (a loop the compiler vectorises: positions in 16.16 fixed point, exact
+// and the same on every CPU) and added after; `cells` holds `steps`. No branch per vote.
+SPOOL_VISION_PIXEL_LOOP void castVotes(const EdgePoint* edges, std::size_t count, float sign, float r0, float inv_cell,
+                                       cv::Point2f origin, const float* weight, int steps, cv::Size size, int* cells,
+                                       float* data)
+{
+  constexpr float kOne = 65536.0f;
+  // Positions off by more than this many cells take no vote anyway; the clamp keeps the fixed
+  // point away from overflow.
+  constexpr float kFar = 16384.0f;
+  const int spare = size.width * size.height;
+  for (std::size_t k = 0; k < count; ++k)
+  {
+    const EdgePoint& e = edges[k];
+    // Accumulator coordinates of the centre at r0 (rounded to the nearest cell by the half added)
+    // and the step per radius increment.
+    const float ax = std::clamp((e.x + sign * r0 * e.dx - origin.x) * inv_cell + 0.5f, -kFar, kFar);
+    const float ay = std::clamp((e.y + sign * r0 * e.dy - origin.y) * inv_cell + 0.5f, -kFar, kFar);
+    const auto x0 = static_cast<std::int32_t>(std::lround(ax * kOne));
+    const auto y0 = static_cast<std::int32_t>(std::lround(ay * kOne));
+    const auto sx = static_cast<std::int32_t>(std::lround(sign * e.dx * kOne));
+    const auto sy = static_cast<std::int32_t>(std::lround(sign * e.dy * kOne));
+    for (int i = 0; i < steps; ++i)
+    {
+      const std::int32_t ix = (x0 + i * sx) >> 16;  // floor
+      const std::int32_t iy = (y0 + i * sy) >> 16;
+      const bool inside = (ix >= 0) & (iy >= 0) & (ix < size.width) & (iy < size.height);
+      cells[i] = inside ? iy * size.width + ix : spare + i;
+    }
+    for (int i = 0; i < steps; ++i)
+      data[cells[i]] += weight[i];
+  }
+}
+
+// The x in [begin, end) where keep(x), in order, into `out`; returns their count. Each x is
+// written and the count advances over the kept ones: a branch per element would mispredict on
+// noisy rows, and most elements of a row are not kept.
+template <typename Keep>
+int keptIndices(int begin, int end, Keep keep, int* out)
+{
+  int n = 0;
+  for (int x = begin; x < end; ++x)
+  {
+    out[n] = x;
+    n += keep(x) ? 1 : 0;
+  }
+  return n;
+}
+
+// The spare bins radiusBins() spreads the non-supporting edges over: successive additions to one
+// bin wait for each other.
+constexpr int kSpareBins = 8;
+
+// For each edge, the bin (radius - lo, rounded) of its distance from `centre` where it supports
+// a rim of radius lo..hi there (radial() for `sign`); else one of kSpareBins bins from `bins` on.
+// A loop the compiler vectorises, with no branch per edge: measureRadius() runs it over every edge
+// of the frame for every peak.
+SPOOL_VISION_PIXEL_LOOP void radiusBins(const EdgePoint* edges, std::size_t count, cv::Point2f centre, float lo,
+                                        float hi, float sign, int bins, std::uint32_t* out)
+{
+  const float lo2 = lo * lo;
+  const float hi2 = hi * hi;
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    const EdgePoint& e = edges[i];
+    const float vx = e.x - centre.x;
+    const float vy = e.y - centre.y;
+    const float d2 = vx * vx + vy * vy;
+    const bool supports = (d2 >= lo2) & (d2 <= hi2) & radial(vx, vy, d2, e, sign);
+    const int bin = static_cast<int>(std::sqrt(d2) - lo + 0.5f);
+    out[i] = static_cast<std::uint32_t>(supports ? bin : bins + static_cast<int>(i % kSpareBins));
+  }
+}
+
+// keep[i] = 1 where edges[i] lies `inner2`..`outer2` (squared px) from `centre` on its `side` (a
+// direction; zero = all round), else 0. Vectorised, no branch per edge.
+SPOOL_VISION_PIXEL_LOOP void inAnnulus(const EdgePoint* edges, std::size_t count, cv::Point2d centre, double inner2,
+                                       double outer2, cv::Point2d side, std::uint8_t* keep)
+{
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    const double vx = edges[i].x - centre.x;
+    const double vy = edges[i].y - centre.y;
+    const double d2 = vx * vx + vy * vy;
+    keep[i] = static_cast<std::uint8_t>((d2 >= inner2) & (d2 <= outer2) & (vx * side.x + vy * side.y >= 0.0));
+  }
+}
+
+// keep[i] = 1 where edges[i] supports the axis-aligned ellipse about `centre` with 1/semi-axis^2
+// `inv_x2`, `inv_y2`: inside its band rho^2 in [rho_min2, rho_max2] and radial() for `sign`.
+SPOOL_VISION_PIXEL_LOOP void inEllipseBand(const EdgePoint* edges, std::size_t count, cv::Point2d centre, double inv_x2,
+                                           double inv_y2, double rho_min2, double rho_max2, float sign,
+                                           std::uint8_t* keep)
+{
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    const EdgePoint& e = edges[i];
+    const double vx = e.x - centre.x;
+    const double vy = e.y - centre.y;
+    const double rho2 = vx * vx * inv_x2 + vy * vy * inv_y2;
+    keep[i] =
+        static_cast<std::uint8_t>((rho2 >= rho_min2) & (rho2 <= rho_max2) & radial(vx, vy, vx * vx + vy * vy, e, sign));
+  }
 }
 
 // 3x3 Sobel and squared magnitude with replicated borders, into gx, gy (CV_16S) and mag (CV_32S)
@@ -127,7 +237,7 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size, con
   return static_cast<double>(inside) / kRimSamples;
 }
 
-void RimMoments::add(double u, double v)
+inline void RimMoments::add(double u, double v)
 {
   const double uu = u * u;
   const double vv = v * v;
@@ -285,16 +395,18 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
   const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();
+  row_indices_.resize(static_cast<std::size_t>(mag_.cols));
   for (int y = area.y; y < area.y + area.height; ++y)
   {
     const short* gxr = gx_.ptr<short>(y);
     const short* gyr = gy_.ptr<short>(y);
     const int* m = mag_.ptr<int>(y);
-    for (int x = area.x; x < area.x + area.width; ++x)
+    const int candidates = keptIndices(
+        area.x, area.x + area.width, [&](int x) { return m[x] >= t2; }, row_indices_.data());
+    for (int k = 0; k < candidates; ++k)
     {
+      const int x = row_indices_[static_cast<std::size_t>(k)];
       const int c2 = m[x];
-      if (c2 < t2)
-        continue;
       const float c = std::sqrt(static_cast<float>(c2));
       const float dx = gxr[x] / c;
       const float dy = gyr[x] / c;
@@ -472,7 +584,7 @@ void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSear
   const float inv_cell = 1.0f / cell;
   const int cols = votes_.cols;
   const int rows = votes_.rows;
-  const int steps = std::max(1, static_cast<int>(std::ceil((search.r_max - search.r_min) / cell_)) + 1);
+  const int steps = radiusSteps(search);
   const float ox = static_cast<float>(origin_.x);
   const float oy = static_cast<float>(origin_.y);
   const float r0 = static_cast<float>(search.r_min);
@@ -484,23 +596,14 @@ void HoughAccumulator::vote(const std::vector<EdgePoint>& edges, const HoughSear
   for (int i = 0; i < steps; ++i, r += cell)
     vote_weights_[static_cast<std::size_t>(i)] = cell / r;
   const float* weight = vote_weights_.data();
+  vote_cells_.resize(static_cast<std::size_t>(steps));
+  castVotes(edges.data(), edges.size(), sign, r0, inv_cell, {ox, oy}, weight, steps, {cols, rows}, vote_cells_.data(),
+            data);
+}
 
-  for (const EdgePoint& e : edges)
-  {
-    // Accumulator coordinates of the centre at r_min and the step per radius increment.
-    float ax = (e.x + sign * r0 * e.dx - ox) * inv_cell;
-    float ay = (e.y + sign * r0 * e.dy - oy) * inv_cell;
-    const float sx = sign * e.dx;
-    const float sy = sign * e.dy;
-    for (int i = 0; i < steps; ++i, ax += sx, ay += sy)
-    {
-      const int ix = static_cast<int>(ax + 0.5f);
-      const int iy = static_cast<int>(ay + 0.5f);
-      if (ix < 0 || iy < 0 || ix >= cols || iy >= rows)
-        continue;
-      data[iy * cols + ix] += weight[i];
-    }
-  }
+int HoughAccumulator::radiusSteps(const HoughSearch& search) const
+{
+  return std::max(1, static_cast<int>(std::ceil((search.r_max - search.r_min) / cell_)) + 1);
 }
 
 void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
@@ -524,16 +627,22 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
   }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
   const float floor_votes = static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
+  row_indices_.resize(static_cast<std::size_t>(smoothed_.cols));
   for (int y = 1; y + 1 < smoothed_.rows; ++y)
   {
     const float* up = smoothed_.ptr<float>(y - 1);
     const float* row = smoothed_.ptr<float>(y);
     const float* down = smoothed_.ptr<float>(y + 1);
-    for (int x = 1; x + 1 < smoothed_.cols; ++x)
+    // Maxima along the row first: about a third of the cells, or none on an empty row.
+    const int candidates = keptIndices(
+        1, smoothed_.cols - 1,
+        [&](int x) { return (row[x] >= floor_votes) & (row[x] >= row[x - 1]) & (row[x] > row[x + 1]); },
+        row_indices_.data());
+    for (int k = 0; k < candidates; ++k)
     {
+      const int x = row_indices_[static_cast<std::size_t>(k)];
       const float v = row[x];
-      if (v < floor_votes || v < row[x - 1] || v <= row[x + 1] || v < up[x - 1] || v < up[x] || v < up[x + 1] ||
-          v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
+      if (v < up[x - 1] || v < up[x] || v < up[x + 1] || v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
         continue;
       // Sub-cell centre from a parabola through the neighbours on each axis.
       const float dxden = row[x - 1] - 2 * v + row[x + 1];
@@ -569,22 +678,14 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
   const double lo = std::max(1.0, search.r_min - slack);
   const double hi = search.r_max + slack;
   const int bins = static_cast<int>(std::ceil(hi - lo)) + 1;
-  histogram_.assign(static_cast<size_t>(bins), 0.0f);
-  const float cx = static_cast<float>(peak.x);
-  const float cy = static_cast<float>(peak.y);
-  const float lo2 = static_cast<float>(lo * lo);
-  const float hi2 = static_cast<float>(hi * hi);
-  for (const EdgePoint& e : edges)
-  {
-    const float vx = e.x - cx;
-    const float vy = e.y - cy;
-    const float d2 = vx * vx + vy * vy;
-    if (d2 < lo2 || d2 > hi2)
-      continue;
-    if (!radial(vx, vy, d2, e, sign))
-      continue;
-    histogram_[static_cast<size_t>(std::sqrt(d2) - lo + 0.5)] += 1.0f;
-  }
+  // Spare bins after the last take the edges that support no radius (radiusBins()).
+  histogram_.assign(static_cast<size_t>(bins + kSpareBins), 0.0f);
+  if (support_bins_.size() < edges.size())
+    support_bins_.resize(edges.size());
+  radiusBins(edges.data(), edges.size(), {static_cast<float>(peak.x), static_cast<float>(peak.y)},
+             static_cast<float>(lo), static_cast<float>(hi), sign, bins, support_bins_.data());
+  for (std::size_t i = 0; i < edges.size(); ++i)
+    histogram_[support_bins_[i]] += 1.0f;
 
   // Score each radius (3-bin window) by its supported fraction of the visible rim. Among the
   // radii scoring close to the best, the largest wins: ribs and labels are concentric but
@@ -649,17 +750,19 @@ void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv:
 {
   const double inner2 = inner > 0.0 ? inner * inner : 0.0;
   const double outer2 = outer * outer;
-  near_.clear();
-  for (const EdgePoint& e : edges)
+  if (near_.size() < edges.size())
+    near_.resize(edges.size());
+  if (keep_.size() < edges.size())
+    keep_.resize(edges.size());
+  inAnnulus(edges.data(), edges.size(), centre, inner2, outer2, side, keep_.data());
+  // Every edge is written and the count advances over the ones kept: no branch per edge.
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < edges.size(); ++i)
   {
-    const double vy = e.y - centre.y;
-    if (vy * vy > outer2)
-      continue;
-    const double vx = e.x - centre.x;
-    const double d2 = vx * vx + vy * vy;
-    if (d2 >= inner2 && d2 <= outer2 && vx * side.x + vy * side.y >= 0.0)
-      near_.push_back(e);
+    near_[kept] = edges[i];
+    kept += keep_[i];
   }
+  near_count_ = kept;
 }
 
 bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
@@ -684,6 +787,10 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   // Four fitting passes, then one that only counts the support of the final model: a fit to a
   // short arc can move far, and the score must describe the circle returned, not the last input.
   constexpr int kFits = 4;
+  // The points each pass takes, as indices into near_: picked without a branch per edge, then
+  // summed in a loop of their own.
+  if (taken_.size() < near_count_)
+    taken_.resize(near_count_);
   for (int iteration = 0; iteration <= kFits; ++iteration)
   {
     const double band = std::max(1.5, kBands[iteration] * r_fit);
@@ -697,19 +804,20 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
     const double rho_max2 = std::pow(1.0 + b, 2);
     const double inv_x2 = 1.0 / (semi_x * semi_x);
     const double inv_y2 = 1.0 / (semi_y * semi_y);
-    RimMoments m;
-    for (const EdgePoint& e : near_)
+    inEllipseBand(near_.data(), near_count_, {cx, cy}, inv_x2, inv_y2, rho_min2, rho_max2, sign, keep_.data());
+    std::uint32_t* taken = taken_.data();
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < near_count_; ++i)
     {
-      const double vx = e.x - cx;
-      const double vy = e.y - cy;
-      const double rho2 = vx * vx * inv_x2 + vy * vy * inv_y2;
-      if (rho2 < rho_min2 || rho2 > rho_max2 || !radial(vx, vy, vx * vx + vy * vy, e, sign))
-        continue;
-      m.add(vx * scale, vy * scale);
+      taken[n] = static_cast<std::uint32_t>(i);
+      n += keep_[i];
     }
-    count = m.count;
+    count = static_cast<int>(n);
     if (iteration == kFits)
       break;
+    RimMoments m;
+    for (std::size_t k = 0; k < n; ++k)
+      m.add((near_[taken[k]].x - cx) * scale, (near_[taken[k]].y - cy) * scale);
     if (count < 8)
       return false;
 
@@ -776,10 +884,10 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
       const double vy = e.y - centre.y;
       const double d2 = vx * vx + vy * vy;
       const double d = std::sqrt(d2);
-      if (std::abs(d - r) > band || !radial(vx, vy, d2, e, sign))
-        continue;
-      sum += d;
-      ++count;
+      // Adding zero leaves the sum as it was: no branch per edge.
+      const bool supports = (std::abs(d - r) <= band) & radial(vx, vy, d2, e, sign);
+      sum += supports ? d : 0.0;
+      count += supports ? 1 : 0;
     }
     if (count == 0)
       return false;
@@ -806,15 +914,14 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   {
     double soft = 0.0;
     int n = 0;
-    for (const EdgePoint& e : near_)
+    for (const EdgePoint& e : nearEdges())
     {
       const double vx = e.x - c.x;
       const double vy = e.y - c.y;
       const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
-      if (off > band || !radial(vx, vy, vx * vx + vy * vy, e, sign))
-        continue;
-      soft += 1.0 - off / band;
-      ++n;
+      const bool supports = (off <= band) & radial(vx, vy, vx * vx + vy * vy, e, sign);
+      soft += supports ? 1.0 - off / band : 0.0;
+      n += supports ? 1 : 0;
     }
     if (count)
       *count = n;
@@ -879,7 +986,9 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   origin_ = cv::Point2d(window.x - cell_, window.y - cell_);
   const int cols = static_cast<int>(std::ceil(window.width / cell_)) + 3;
   const int rows = static_cast<int>(std::ceil(window.height / cell_)) + 3;
-  votes_data_.resize(std::max(votes_data_.size(), static_cast<size_t>(rows) * static_cast<size_t>(cols)));
+  // The spare cells after the accumulator take castVotes()'s votes off it.
+  votes_data_.resize(std::max(votes_data_.size(), static_cast<size_t>(rows) * static_cast<size_t>(cols) +
+                                                      static_cast<size_t>(radiusSteps(search))));
   votes_ = cv::Mat(rows, cols, CV_32F, votes_data_.data());
   std::fill(votes_.ptr<float>(), votes_.ptr<float>() + votes_.total(), 0.0f);  // setTo allocates
 

@@ -13,19 +13,6 @@ namespace spool_vision
 {
 namespace
 {
-// ITU-R BT.601 luma in 14-bit fixed point (the weights cv::cvtColor uses).
-template <int kChannels, int kRed, int kBlue>
-void lumaRows(const cv::Mat& image, cv::Mat& gray)
-{
-  for (int y = 0; y < image.rows; ++y)
-  {
-    const uchar* in = image.ptr<uchar>(y);
-    uchar* out = gray.ptr<uchar>(y);
-    for (int x = 0; x < image.cols; ++x, in += kChannels)
-      out[x] = static_cast<uchar>((in[kRed] * 4899 + in[1] * 9617 + in[kBlue] * 1868 + 8192) >> 14);
-  }
-}
-
 cv::Mat diskElement(int radius)
 {
   return cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * radius + 1, 2 * radius + 1));
@@ -147,17 +134,18 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
     case PixelFormat::kMono16:
       image.convertTo(gray, CV_8U, 1.0 / 257.0);
       break;
+    // ITU-R BT.601 luma.
     case PixelFormat::kBgr8:
-      lumaRows<3, 2, 0>(image, gray);
+      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
       break;
     case PixelFormat::kRgb8:
-      lumaRows<3, 0, 2>(image, gray);
+      cv::cvtColor(image, gray, cv::COLOR_RGB2GRAY);
       break;
     case PixelFormat::kBgra8:
-      lumaRows<4, 2, 0>(image, gray);
+      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
       break;
     case PixelFormat::kRgba8:
-      lumaRows<4, 0, 2>(image, gray);
+      cv::cvtColor(image, gray, cv::COLOR_RGBA2GRAY);
       break;
   }
 }
