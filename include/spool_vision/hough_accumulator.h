@@ -82,7 +82,6 @@ private:
   std::vector<short> column_sum_, column_diff_;   ///< one row's vertical Sobel taps, padded by 1
   std::vector<int> strengths_;                    ///< squared gradient magnitude of each extracted edge
   std::vector<int> selection_;                    ///< scratch for the budget's nth_element
-  std::vector<int> row_indices_;                  ///< extract(): one row's columns past the threshold
   std::vector<std::size_t> magnitude_histogram_;  ///< boundedThreshold()'s, kMagnitudeBins
 };
 
@@ -216,7 +215,6 @@ private:
   cv::Point2d origin_;  ///< image position of cell (0,0)
   double cell_ = 1.0;
   std::vector<Peak> peaks_;
-  std::vector<int> row_indices_;  ///< findPeaks(): one row's maxima along it
   std::vector<float> histogram_;
   std::vector<std::uint32_t> support_bins_;  ///< measureRadius(): the supporting edges' bins
   std::vector<float> vote_weights_;          ///< vote(): cell / r per radius step

@@ -89,21 +89,6 @@ SPOOL_VISION_PIXEL_LOOP void castVotes(const EdgePoint* edges, std::size_t count
   }
 }
 
-// The x in [begin, end) where keep(x), in order, into `out`; returns their count. Each x is
-// written and the count advances over the kept ones: a branch per element would mispredict on
-// noisy rows, and most elements of a row are not kept.
-template <typename Keep>
-int keptIndices(int begin, int end, Keep keep, int* out)
-{
-  int n = 0;
-  for (int x = begin; x < end; ++x)
-  {
-    out[n] = x;
-    n += keep(x) ? 1 : 0;
-  }
-  return n;
-}
-
 // The spare bins radiusBins() spreads the non-supporting edges over: successive additions to one
 // bin wait for each other.
 constexpr int kSpareBins = 8;
@@ -395,18 +380,16 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
   const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();
-  row_indices_.resize(static_cast<std::size_t>(mag_.cols));
   for (int y = area.y; y < area.y + area.height; ++y)
   {
     const short* gxr = gx_.ptr<short>(y);
     const short* gyr = gy_.ptr<short>(y);
     const int* m = mag_.ptr<int>(y);
-    const int candidates = keptIndices(
-        area.x, area.x + area.width, [&](int x) { return m[x] >= t2; }, row_indices_.data());
-    for (int k = 0; k < candidates; ++k)
+    for (int x = area.x; x < area.x + area.width; ++x)
     {
-      const int x = row_indices_[static_cast<std::size_t>(k)];
       const int c2 = m[x];
+      if (c2 < t2)
+        continue;
       const float c = std::sqrt(static_cast<float>(c2));
       const float dx = gxr[x] / c;
       const float dy = gyr[x] / c;
@@ -627,22 +610,16 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
   }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
   const float floor_votes = static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
-  row_indices_.resize(static_cast<std::size_t>(smoothed_.cols));
   for (int y = 1; y + 1 < smoothed_.rows; ++y)
   {
     const float* up = smoothed_.ptr<float>(y - 1);
     const float* row = smoothed_.ptr<float>(y);
     const float* down = smoothed_.ptr<float>(y + 1);
-    // Maxima along the row first: about a third of the cells, or none on an empty row.
-    const int candidates = keptIndices(
-        1, smoothed_.cols - 1,
-        [&](int x) { return (row[x] >= floor_votes) & (row[x] >= row[x - 1]) & (row[x] > row[x + 1]); },
-        row_indices_.data());
-    for (int k = 0; k < candidates; ++k)
+    for (int x = 1; x + 1 < smoothed_.cols; ++x)
     {
-      const int x = row_indices_[static_cast<std::size_t>(k)];
       const float v = row[x];
-      if (v < up[x - 1] || v < up[x] || v < up[x + 1] || v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
+      if (v < floor_votes || v < row[x - 1] || v <= row[x + 1] || v < up[x - 1] || v < up[x] || v < up[x + 1] ||
+          v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
         continue;
       // Sub-cell centre from a parabola through the neighbours on each axis.
       const float dxden = row[x - 1] - 2 * v + row[x + 1];
