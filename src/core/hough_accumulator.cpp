@@ -134,14 +134,20 @@ SPOOL_VISION_PIXEL_LOOP void inEllipseBand(const EdgePoint* edges, std::size_t c
                                            double inv_y2, double rho_min2, double rho_max2, float sign,
                                            std::uint8_t* keep)
 {
+  // In float, as the edges are: eight lanes, not four.
+  const auto cx = static_cast<float>(centre.x);
+  const auto cy = static_cast<float>(centre.y);
+  const auto ix2 = static_cast<float>(inv_x2);
+  const auto iy2 = static_cast<float>(inv_y2);
+  const auto lo2 = static_cast<float>(rho_min2);
+  const auto hi2 = static_cast<float>(rho_max2);
   for (std::size_t i = 0; i < count; ++i)
   {
     const EdgePoint& e = edges[i];
-    const double vx = e.x - centre.x;
-    const double vy = e.y - centre.y;
-    const double rho2 = vx * vx * inv_x2 + vy * vy * inv_y2;
-    keep[i] =
-        static_cast<std::uint8_t>((rho2 >= rho_min2) & (rho2 <= rho_max2) & radial(vx, vy, vx * vx + vy * vy, e, sign));
+    const float vx = e.x - cx;
+    const float vy = e.y - cy;
+    const float rho2 = vx * vx * ix2 + vy * vy * iy2;
+    keep[i] = static_cast<std::uint8_t>((rho2 >= lo2) & (rho2 <= hi2) & radial(vx, vy, vx * vx + vy * vy, e, sign));
   }
 }
 
@@ -390,17 +396,22 @@ void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t ma
       const int c2 = m[x];
       if (c2 < t2)
         continue;
-      const float c = std::sqrt(static_cast<float>(c2));
-      const float dx = gxr[x] / c;
-      const float dy = gyr[x] / c;
-      // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood.
-      const int sx = std::abs(dx) > 0.3827f ? (dx > 0 ? 1 : -1) : 0;
-      const int sy = std::abs(dy) > 0.3827f ? (dy > 0 ? 1 : -1) : 0;
+      // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood: a component
+      // counts where it is over sin(22.5 deg) of the magnitude, compared in squares (most pixels
+      // past the threshold are suppressed, and need no root or division).
+      const int gx = gxr[x];
+      const int gy = gyr[x];
+      const float counts = 0.3827f * 0.3827f * static_cast<float>(c2);
+      const int sx = static_cast<float>(gx * gx) > counts ? (gx > 0 ? 1 : -1) : 0;
+      const int sy = static_cast<float>(gy * gy) > counts ? (gy > 0 ? 1 : -1) : 0;
       const std::ptrdiff_t offset_next = sx + static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(step);
       const int before2 = m[x - offset_next];
       const int after2 = m[x + offset_next];
       if (c2 < before2 || c2 <= after2)
         continue;
+      const float c = std::sqrt(static_cast<float>(c2));
+      const float dx = static_cast<float>(gx) / c;
+      const float dy = static_cast<float>(gy) / c;
       // Parabola through the three magnitudes puts the edge between pixels.
       const float before = std::sqrt(static_cast<float>(before2));
       const float after = std::sqrt(static_cast<float>(after2));
