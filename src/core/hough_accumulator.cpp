@@ -108,7 +108,8 @@ SPOOL_VISION_PIXEL_LOOP void radiusBins(const EdgePoint* edges, std::size_t coun
     const float vx = e.x - centre.x;
     const float vy = e.y - centre.y;
     const float d2 = vx * vx + vy * vy;
-    const bool supports = (d2 >= lo2) & (d2 <= hi2) & radial(vx, vy, d2, e, sign);
+    const bool aligned = radial(vx, vy, d2, e, sign);
+    const bool supports = (d2 >= lo2) & (d2 <= hi2) & aligned;
     const int bin = static_cast<int>(std::sqrt(d2) - lo + 0.5f);
     out[i] = static_cast<std::uint32_t>(supports ? bin : bins + static_cast<int>(i % kSpareBins));
   }
@@ -147,7 +148,8 @@ SPOOL_VISION_PIXEL_LOOP void inEllipseBand(const EdgePoint* edges, std::size_t c
     const float vx = e.x - cx;
     const float vy = e.y - cy;
     const float rho2 = vx * vx * ix2 + vy * vy * iy2;
-    keep[i] = static_cast<std::uint8_t>((rho2 >= lo2) & (rho2 <= hi2) & radial(vx, vy, vx * vx + vy * vy, e, sign));
+    const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
+    keep[i] = static_cast<std::uint8_t>((rho2 >= lo2) & (rho2 <= hi2) & aligned);
   }
 }
 
@@ -873,7 +875,8 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
       const double d2 = vx * vx + vy * vy;
       const double d = std::sqrt(d2);
       // Adding zero leaves the sum as it was: no branch per edge.
-      const bool supports = (std::abs(d - r) <= band) & radial(vx, vy, d2, e, sign);
+      const bool aligned = radial(vx, vy, d2, e, sign);
+      const bool supports = (std::abs(d - r) <= band) & aligned;
       sum += supports ? d : 0.0;
       count += supports ? 1 : 0;
     }
@@ -907,7 +910,8 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
       const double vx = e.x - c.x;
       const double vy = e.y - c.y;
       const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
-      const bool supports = (off <= band) & radial(vx, vy, vx * vx + vy * vy, e, sign);
+      const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
+      const bool supports = (off <= band) & aligned;
       soft += supports ? 1.0 - off / band : 0.0;
       n += supports ? 1 : 0;
     }
