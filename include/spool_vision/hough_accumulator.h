@@ -226,23 +226,6 @@ private:
   std::size_t near_count_ = 0;
   std::vector<std::uint32_t> taken_;  ///< refine(): indices into near_ of one pass's points
   std::vector<std::uint8_t> keep_;    ///< gatherNear(), refine(): 1 per edge kept
-  struct EdgeRange
-  {
-    const EdgePoint* first;
-    const EdgePoint* last;
-    const EdgePoint* begin() const
-    {
-      return first;
-    }
-    const EdgePoint* end() const
-    {
-      return last;
-    }
-  };
-  EdgeRange nearEdges() const
-  {
-    return {near_.data(), near_.data() + near_count_};
-  }
 };
 
 /// Fraction of a circle's circumference that can show: inside an image of the given size and,

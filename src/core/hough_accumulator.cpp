@@ -905,8 +905,9 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   {
     double soft = 0.0;
     int n = 0;
-    for (const EdgePoint& e : nearEdges())
+    for (std::size_t i = 0; i < near_count_; ++i)
     {
+      const EdgePoint& e = near_[i];
       const double vx = e.x - c.x;
       const double vy = e.y - c.y;
       const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
