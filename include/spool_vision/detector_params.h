@@ -48,6 +48,15 @@ enum class SpoolEvidence
   kBore,
   kFlange  ///< the flange alone; the hole is reported when one passes (thesis: "BC or both")
 };
+/// A second flange search where the first finds no spool with a hole rim, or one farther from
+/// the reference than its flange radius (SpoolDetector::detect()).
+enum class FlangeRetry
+{
+  kNone,
+  /// Either polarity: a glossy face under a lamp, or a grey face against a darker shelf, shows
+  /// a rim brighter inside than out, which the dark search cannot see.
+  kAnyPolarity
+};
 enum class YawMode
 {
   kPinhole,
@@ -85,6 +94,7 @@ struct HoughParams
   double hole_sensitivity = 0.8;      ///< the same for the hole (a partly lit bore shows part of its rim)
   Polarity flange_polarity = Polarity::kDark;
   Polarity hole_polarity = Polarity::kAny;
+  FlangeRetry flange_retry = FlangeRetry::kAnyPolarity;
   double flange_radius_min = 0.0;     ///< px, 0 = from distance_max
   double flange_radius_max = 0.0;     ///< px, 0 = from distance_min
   double hole_radius_min = 0.0;       ///< px, 0 = from distance_max

@@ -151,6 +151,12 @@ public:
   /// Detected circles, best first. `image_size` bounds the visible rim.
   void detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
               std::vector<Circle>& circles);
+  /// detect()'s circles for `search` with polarity any, right after a detect() of `search` (dark
+  /// or bright) on the same `edges`: only the other polarity's votes are cast, onto the
+  /// accumulator that one left, which halves the voting of a second search. Throws
+  /// std::logic_error when `search` does not match the last detect()'s accumulator.
+  void detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                            std::vector<Circle>& circles);
 
   /// The rim circle of `search`'s radius range centred on `centre` (a known axis: a hole's
   /// centre), with no centre fit: a fit of a one-sided arc would follow whatever else lies on
@@ -193,6 +199,9 @@ private:
     float votes;
   };
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
+  /// The circles at the accumulator's peaks: radius, fit, score and duplicates (detect()).
+  void circlesFromVotes(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                        std::vector<Circle>& circles);
   /// Votes on the side `sign` (centreSign) of each edge.
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search, float sign);
   /// Radii voted for per edge: r_min, r_min + cell_, ... up to r_max.
@@ -212,7 +221,9 @@ private:
   /// change of shape: the cells live in buffers that only grow.
   std::vector<float> votes_data_;
   std::vector<float> smoothed_data_;
-  cv::Point2d origin_;  ///< image position of cell (0,0)
+  cv::Point2d origin_;      ///< image position of cell (0,0)
+  HoughSearch voted_;       ///< the last detect()'s search (detectEitherPolarity())
+  bool has_votes_ = false;  ///< whether votes_ holds its votes
   double cell_ = 1.0;
   std::vector<Peak> peaks_;
   std::vector<float> histogram_;

@@ -53,22 +53,26 @@ public:
   {
     return preprocessed_;
   }
+  /// The last flange search's candidates (the flange_retry search's when it ran).
   const std::vector<Circle>& flangeCandidates() const
   {
     return flanges_;
   }
+  /// The hole candidates of the result's target.
   const std::vector<Circle>& holeCandidates() const
   {
     return holes_;
   }
 
+  /// Least support of the hole rim of a spool found by the flange_retry search.
+  static constexpr double kRetryHoleScore = 0.35;
   /// The smallest frame the detector accepts (each side, px).
   static constexpr int kMinImageSide = 32;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
   /// rim_: the edges of the result's flange rim (for SpoolGeometry::fitRimPose).
-  void gatherRim(const SpoolDetection& result);
+  void gatherRim(const SpoolDetection& result, Polarity polarity);
   /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
   /// The most edges kept from a region of `size` (edge_budget).
@@ -77,9 +81,18 @@ private:
   /// (a rectangle, or a point) and whose radius is at most `reach` px; placed in `linear` light
   /// when given (EdgeDetector::extract).
   void extractHoleEdges(const cv::Rect2d& centres, double reach, const LinearLight* linear = nullptr);
-  /// Picks the target among the flange candidates and finds its hole (thesis Rule 2).
-  void selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min, double hole_max,
-                    SpoolDetection& result);
+  /// Picks the target among the flange candidates (flanges_, found in `flange_search`) and
+  /// finds its hole in `hole_search` (thesis Rule 2); without a hole rim, `evidence` decides.
+  /// Returns the target's cost (ConcentricMatcher::targetCost(), px), infinite without a hole
+  /// rim; candidates that cannot cost less than `bound` are not tried.
+  double selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, const HoughSearch& hole_search,
+                      SpoolEvidence evidence, double bound, SpoolDetection& result);
+  /// flange_retry: the flange search again with either polarity (after flange_hough_.detect() of
+  /// `flange_search`), less the ghosts enclosing a solid rim, each spool needing a hole rim of
+  /// kRetryHoleScore. Replaces `result` and returns true when its target costs less than `cost`
+  /// (selectTarget()'s of the first search).
+  bool searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,
+                            const HoughSearch& hole_search, double cost, SpoolDetection& result);
   /// `flange`'s spool: the flange (measured again about the hole when the fit was off it) and a
   /// hole found in `hole_search` that passes the concentric rule; nullopt when none does.
   std::optional<SpoolMatch> matchSpool(const Circle& flange, const HoughSearch& hole_search,
@@ -121,6 +134,7 @@ private:
   std::vector<Circle> flanges_;
   std::vector<Circle> holes_;         ///< hole candidates of the target (or of the last search)
   std::vector<Circle> target_holes_;  ///< the best candidate's while the others are searched
+  std::vector<Circle> first_holes_;   ///< the first search's target's during the flange_retry search
   std::vector<Circle> lenses_;
   std::vector<std::size_t> order_;
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 namespace spool_vision
@@ -129,6 +130,28 @@ double ConcentricMatcher::targetCost(const cv::Point2d& centre, double score, co
   // Arcs of several objects can fake a weak circle right in the middle of the frame: one half as
   // well supported as a solid rim must be twice as near to win.
   return std::hypot(centre.x - reference.x, centre.y - reference.y) / std::clamp(score / kSolidRimScore, 1e-3, 1.0);
+}
+
+void ConcentricMatcher::dropEnclosingGhosts(std::vector<Circle>& flanges)
+{
+  auto encloses = [](const Circle& ghost, const Circle& rim)
+  {
+    const double offset = std::hypot(rim.x - ghost.x, rim.y - ghost.y);
+    return rim.score >= kSolidRimScore && rim.score > ghost.score && rim.r < ghost.r && offset > 0.1 * ghost.r &&
+           offset + 0.5 * rim.r < ghost.r;
+  };
+  // Judged on the whole list before any is removed (max_candidates <= 64; no allocation).
+  std::uint64_t ghosts = 0;
+  const std::size_t n = std::min<std::size_t>(flanges.size(), 64);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = 0; j < n; ++j)
+      if (encloses(flanges[i], flanges[j]))
+        ghosts |= std::uint64_t{1} << i;
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < flanges.size(); ++i)
+    if (i >= n || !(ghosts >> i & 1U))
+      flanges[kept++] = flanges[i];
+  flanges.resize(kept);
 }
 
 void ConcentricMatcher::orderByReference(const std::vector<Circle>& flanges, const cv::Point2d& reference,

@@ -105,6 +105,10 @@ std::vector<ParamSpec> buildSpecs()
              "a hole needs (1 - hole_sensitivity) of its visible rim supported (thesis: 0.89)"),
       choice<Polarity>("flange_polarity", FIELD(hough.flange_polarity), polarity,
                        "flange disc darker or brighter than its surroundings"),
+      choice<FlangeRetry>("flange_retry", FIELD(hough.flange_retry), {"none", "any_polarity"},
+                          "when the flange_polarity search finds no spool with a hole rim, or one farther from the "
+                          "reference than its flange radius: none, or any_polarity = search again with either "
+                          "polarity (glossy faces under a lamp) and take its spool if nearer"),
       choice<Polarity>("hole_polarity", FIELD(hough.hole_polarity), polarity,
                        "hole disc darker or brighter than the flange face"),
       number("flange_radius_min", FIELD(hough.flange_radius_min), 0.0, 5000.0, "px",

@@ -5,6 +5,7 @@
 #include <bitset>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
@@ -963,6 +964,8 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
                               std::vector<Circle>& circles)
 {
   circles.clear();
+  voted_ = search;
+  has_votes_ = false;
   if (search.r_max <= 0.0 || search.r_max < search.r_min || edges.empty())
     return;
 
@@ -986,6 +989,32 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   std::fill(votes_.ptr<float>(), votes_.ptr<float>() + votes_.total(), 0.0f);  // setTo allocates
 
   vote(edges, search);
+  has_votes_ = true;
+  circlesFromVotes(edges, image_size, search, circles);
+}
+
+void HoughAccumulator::detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                            const HoughSearch& search, std::vector<Circle>& circles)
+{
+  if (search.r_min != voted_.r_min || search.r_max != voted_.r_max || search.center_window != voted_.center_window ||
+      search.polarity != voted_.polarity)
+    throw std::logic_error("HoughAccumulator::detectEitherPolarity: the last detect() was of another search");
+  circles.clear();
+  if (!has_votes_)
+    return;  // detect() found nothing to vote with
+  HoughSearch either = search;
+  either.polarity = Polarity::kAny;
+  if (search.polarity != Polarity::kAny)
+  {
+    vote(edges, search, -centreSign(search.polarity));
+    voted_ = either;
+  }
+  circlesFromVotes(edges, image_size, either, circles);
+}
+
+void HoughAccumulator::circlesFromVotes(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                        const HoughSearch& search, std::vector<Circle>& circles)
+{
   findPeaks(search, 2 * search.max_circles);
 
   for (const Peak& peak : peaks_)

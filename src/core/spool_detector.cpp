@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -11,6 +12,12 @@
 
 namespace spool_vision
 {
+namespace
+{
+/// selectTarget()'s cost when no candidate has a concentric hole rim.
+constexpr double kNoMatch = std::numeric_limits<double>::infinity();
+}  // namespace
+
 SpoolDetector::SpoolDetector(const DetectorParams& params)
   : params_(params)
   // Both are set up again for the camera of the first frame (geometryFor()).
@@ -85,30 +92,67 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   flange_search.min_score = 1.0 - hp.sensitivity;
   flange_search.min_visible_fraction = hp.min_visible_fraction;
   flange_search.max_circles = hp.max_candidates;
-  flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
+  HoughSearch hole_search;
+  hole_search.polarity = hp.hole_polarity;
+  hole_search.min_score = 1.0 - hp.hole_sensitivity;
+  hole_search.min_visible_fraction = hp.min_visible_fraction;
+  hole_search.max_circles = hp.max_candidates;
+  hole_search.r_min = pick(hp.hole_radius_min, hole_min);
+  hole_search.r_max = pick(hp.hole_radius_max, hole_max);
+  const cv::Point2d reference = geometry.reference(geometry.nominalDistance());
 
   SpoolDetection result;
-  selectTarget(geometry.reference(geometry.nominalDistance()), flange_search, pick(hp.hole_radius_min, hole_min),
-               pick(hp.hole_radius_max, hole_max), result);
-  gatherRim(result);
+  flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
+  const double cost =
+      selectTarget(reference, flange_search, hole_search, params_.matcher.spool_evidence, kNoMatch, result);
+  // The second search runs only where it can change the answer: no spool with a hole rim, or
+  // one costing more than its flange radius. Within it, no other spool (whose disc cannot
+  // overlap this one's) is nearer the reference.
+  const bool retry = hp.flange_retry == FlangeRetry::kAnyPolarity && params_.matcher.mode == MatchMode::kMcht &&
+                     flange_search.polarity != Polarity::kAny && !(cost <= result.flange.r);
+  const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
+  gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
   geometry.measure(result, rim_);
   toFramePixels(geometry.camera(), result);
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
-void SpoolDetector::gatherRim(const SpoolDetection& result)
+bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,
+                                         const HoughSearch& hole_search, double cost, SpoolDetection& result)
+{
+  // Either polarity admits ghosts (shelf boards and neighbours' arcs closing a circle around a
+  // real rim, weak rings in clutter): those enclosing a solid rim go, and a spool needs a hole
+  // rim with kRetryHoleScore of its support.
+  HoughSearch either = flange_search;
+  either.polarity = Polarity::kAny;
+  HoughSearch strict = hole_search;
+  strict.min_score = std::max(hole_search.min_score, kRetryHoleScore);
+  std::swap(holes_, first_holes_);
+  flange_hough_.detectEitherPolarity(edges_, preprocessed_.size(), flange_search, flanges_);
+  ConcentricMatcher::dropEnclosingGhosts(flanges_);
+  SpoolDetection second;
+  if (selectTarget(reference, either, strict, SpoolEvidence::kHole, cost, second) < cost)
+  {
+    result = second;
+    return true;
+  }
+  std::swap(holes_, first_holes_);
+  return false;
+}
+
+void SpoolDetector::gatherRim(const SpoolDetection& result, Polarity polarity)
 {
   rim_.clear();
   if (!result.hole_detected)
     return;
   // Edges within a few px of the flange's ellipse whose gradient points outwards (the face is
-  // darker than what lies around it; with flange_polarity any, either way).
+  // darker than what lies around it; with any polarity, either way).
   const Circle& f = result.flange;
   const double semi_x = f.r_horizontal > 0.0 ? f.r_horizontal : f.r;
   const double semi_y = f.r_vertical > 0.0 ? f.r_vertical : f.r;
   const double band = std::max(3.0, 0.02 * semi_y);
-  const bool either = params_.hough.flange_polarity != Polarity::kDark;
+  const bool either = polarity != Polarity::kDark;
   for (const EdgePoint& e : edges_)
   {
     const double vx = (e.x - f.x) / semi_x;
@@ -153,18 +197,11 @@ void SpoolDetector::extractHoleEdges(const cv::Rect2d& centres, double reach, co
   edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_, linear);
 }
 
-void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, double hole_min,
-                                 double hole_max, SpoolDetection& result)
+double SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search,
+                                   const HoughSearch& hole_search, SpoolEvidence evidence, double bound,
+                                   SpoolDetection& result)
 {
   const HoughParams& hp = params_.hough;
-  HoughSearch hole_search;
-  hole_search.polarity = hp.hole_polarity;
-  hole_search.min_score = 1.0 - hp.hole_sensitivity;
-  hole_search.min_visible_fraction = hp.min_visible_fraction;
-  hole_search.max_circles = hp.max_candidates;
-  hole_search.r_min = hole_min;
-  hole_search.r_max = hole_max;
-
   ConcentricMatcher::orderByReference(flanges_, reference, order_);
   holes_.clear();
   auto take = [&result](const Circle& flange, const std::optional<Circle>& hole)
@@ -181,13 +218,13 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
   {
     // The thesis baseline: the flange nearest the reference, the strongest hole anywhere.
     if (order_.empty())
-      return;
+      return kNoMatch;
     edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()),
                            edgeBudget(preprocessed_.size()), hole_edges_);
     detectHoles(hole_search);
     const Circle& target = flanges_[order_.front()];
     take(target, matcher_.matchHole(target, holes_));
-    return;
+    return kNoMatch;
   }
   // MCHT: a flange is a spool only with a concentric hole of the right size, so false circles
   // (arcs of neighbours, shelf edges, round objects without a bore) do not become the target.
@@ -195,7 +232,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
   // by the rim score (ConcentricMatcher::targetCost()); candidates are tried in that order, and
   // one that cannot beat the best so far even with a solid rim is skipped.
   std::optional<SpoolMatch> best;
-  double best_cost = 0.0;
+  double best_cost = bound;
   for (const std::size_t i : order_)
   {
     HoughSearch search = hole_search;
@@ -204,13 +241,13 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     const cv::Rect2d& w = search.center_window;
     const double nearest = std::hypot(reference.x - std::clamp(reference.x, w.x, w.x + w.width),
                                       reference.y - std::clamp(reference.y, w.y, w.y + w.height));
-    if (best && nearest >= best_cost)
+    if (nearest >= best_cost)
       continue;
     const std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
     if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y))
       continue;
     const double cost = ConcentricMatcher::targetCost({match->hole->x, match->hole->y}, match->flange.score, reference);
-    if (!best || cost < best_cost)
+    if (cost < best_cost)
     {
       best = match;
       best_cost = cost;
@@ -225,12 +262,12 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
     // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
     if (params_.hough.hole_polarity != Polarity::kBright)
       findLens(result);
-    return;
+    return best_cost;
   }
   holes_.clear();
   if (order_.empty())
-    return;
-  switch (params_.matcher.spool_evidence)
+    return kNoMatch;
+  switch (evidence)
   {
     case SpoolEvidence::kHole:
       break;
@@ -242,6 +279,7 @@ void SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch
       take(flanges_[order_.front()], std::nullopt);
       break;
   }
+  return kNoMatch;
 }
 
 void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)

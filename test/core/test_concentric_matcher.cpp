@@ -112,6 +112,25 @@ TEST(ConcentricMatcher, CandidatesAreTriedNearestTheReferenceFirst)
   EXPECT_TRUE(order.empty());
 }
 
+TEST(ConcentricMatcher, DropsGhostsThatEncloseASolidRimOffTheirCentre)
+{
+  // Shelf boards and neighbours' arcs close a big weak circle around a real rim: it goes. A
+  // circle about a concentric smaller one (its bore, a rib), a strong circle about a weaker one,
+  // and one that a solid rim only overlaps (a neighbour) stay.
+  std::vector<Circle> flanges{circle(100, 60, 80, 0.5),  circle(130, 60, 40, 0.9),   // ghost, rim
+                              circle(300, 60, 80, 0.5),  circle(302, 60, 40, 0.95),  // concentric
+                              circle(500, 60, 80, 0.95), circle(530, 60, 40, 0.6),   // strong outside
+                              circle(700, 60, 80, 0.5),  circle(770, 60, 40, 0.9)};  // overlap
+  ConcentricMatcher::dropEnclosingGhosts(flanges);
+  std::vector<double> kept;
+  for (const Circle& c : flanges)
+    kept.push_back(c.x);
+  EXPECT_EQ(kept, (std::vector<double>{130, 300, 302, 500, 530, 700, 770}));
+  std::vector<Circle> none;
+  ConcentricMatcher::dropEnclosingGhosts(none);
+  EXPECT_TRUE(none.empty());
+}
+
 TEST(ConcentricMatcher, HoleWindowWidensOutwardForTheBackFlange)
 {
   const MatcherParams p = params(MatchMode::kMcht, 4.0, kVga);

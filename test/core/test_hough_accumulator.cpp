@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
 
@@ -167,6 +168,53 @@ TEST(HoughAccumulator, PolaritySelectsDarkOrBrightDiscs)
   ASSERT_EQ(bright.size(), 1u);
   EXPECT_NEAR(bright[0].r, 30, 0.3);
   EXPECT_TRUE(find(img, 20, 40, Polarity::kDark).empty());
+}
+
+TEST(HoughAccumulator, EitherPolarityAfterADarkSearchEqualsAnAnySearch)
+{
+  // A dark disc and a bright one: the dark search finds one, adding the bright votes both, as a
+  // search of either polarity from scratch does.
+  SceneStyle style;
+  style.background = 120;
+  style.flange = 30;
+  cv::Mat img = drawSceneGray({300, 160}, {{80, 80, 32, 0}}, style);
+  cv::circle(img, {220, 80}, 30, cv::Scalar(220), cv::FILLED, cv::LINE_AA);
+  cv::GaussianBlur(img, img, cv::Size(), 1.0);
+  const std::vector<EdgePoint> edges = edgesOf(img, 0.05);
+  HoughSearch search;
+  search.r_min = 20;
+  search.r_max = 40;
+  search.polarity = Polarity::kDark;
+  HoughAccumulator hough;
+  std::vector<Circle> dark;
+  hough.detect(edges, img.size(), search, dark);
+  ASSERT_EQ(dark.size(), 1u);
+  EXPECT_NEAR(dark[0].x, 80, 0.3);
+  std::vector<Circle> either;
+  hough.detectEitherPolarity(edges, img.size(), search, either);
+
+  HoughSearch any = search;
+  any.polarity = Polarity::kAny;
+  std::vector<Circle> scratch;
+  HoughAccumulator().detect(edges, img.size(), any, scratch);
+  ASSERT_EQ(either.size(), 2u);
+  ASSERT_EQ(scratch.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i)
+  {
+    EXPECT_NEAR(either[i].x, scratch[i].x, 1e-3);
+    EXPECT_NEAR(either[i].y, scratch[i].y, 1e-3);
+    EXPECT_NEAR(either[i].r, scratch[i].r, 1e-3);
+  }
+
+  // Only right after a detect() of that search: its votes are what is added to.
+  HoughSearch other = search;
+  other.r_max = 45;
+  hough.detect(edges, img.size(), search, dark);
+  EXPECT_THROW(hough.detectEitherPolarity(edges, img.size(), other, either), std::logic_error);
+  // Nothing voted (no edges), nothing found.
+  hough.detect({}, img.size(), search, dark);
+  hough.detectEitherPolarity({}, img.size(), search, either);
+  EXPECT_TRUE(either.empty());
 }
 
 TEST(HoughAccumulator, FindsAnArcCutByTheFrameBorder)

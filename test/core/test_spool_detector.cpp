@@ -133,6 +133,38 @@ TEST(SpoolDetector, TargetsTheSpoolInFrontAmongNeighbours)
   EXPECT_TRUE(d.hole_detected);
 }
 
+TEST(SpoolDetector, AGlossyFaceLighterThanTheShelfIsFoundByTheSecondFlangeSearch)
+{
+  // A lamp's sheen lifts the face above a dark shelf: the rim's polarity is reversed, and the
+  // bore is a darker disc in it.
+  const DrawnSpool s = spoolAt(kVga, 0.8, 0.03, 0.06);
+  spool_vision::test::SceneStyle style;
+  style.background = 60;
+  style.flange = 150;
+  style.hole = 20;
+  const cv::Mat img = drawScene({640, 480}, {s}, style);
+
+  DetectorParams dark_only;
+  dark_only.hough.flange_retry = spool_vision::FlangeRetry::kNone;
+  EXPECT_FALSE(SpoolDetector(dark_only).detect(img, PixelFormat::kBgr8).detected);
+
+  const SpoolDetection d = SpoolDetector().detect(img, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  ASSERT_TRUE(d.hole_detected);
+  EXPECT_NEAR(d.flange.x, s.x, 1.0);
+  EXPECT_NEAR(d.flange.y, s.y, 1.0);
+  EXPECT_NEAR(d.flange.r, s.flange_r, 1.0);
+  EXPECT_NEAR(d.hole.x, s.x, 1.0);
+  EXPECT_NEAR(d.distance, 0.8, 0.01);
+
+  // The usual dark face on a lighter shelf: the first search finds it.
+  style.background = 170;
+  style.flange = 35;
+  const SpoolDetection first = SpoolDetector().detect(drawScene({640, 480}, {s}, style), PixelFormat::kBgr8);
+  ASSERT_TRUE(first.detected);
+  EXPECT_NEAR(first.flange.x, s.x, 1.0);
+}
+
 TEST(SpoolDetector, MeasuresAnObliqueSpoolWhoseBackFlangeShowsBesideIt)
 {
   // 19 deg off the axis at 95 cm the back flange, 20 cm further, sticks out ~20 px on the inner
