@@ -106,11 +106,11 @@ public:
   /// must be nearer in proportion to its missing support, two solid rims are ordered by distance
   /// alone.
   static double targetCost(const cv::Point2d& centre, double score, const cv::Point2d& reference);
-  /// Removes from `flanges` each circle that encloses a smaller one, off its centre by more than
-  /// a tenth of its radius, that scores at least kSolidRimScore and more than it: arcs of shelf
-  /// boards and neighbours close such a ghost around a real rim, while nothing solid sits off
-  /// centre inside a spool's own front rim (its bore is concentric).
-  static void dropEnclosingGhosts(std::vector<Circle>& flanges);
+  /// Removes from `flanges` each circle that encloses a smaller one (of `flanges` or `others`),
+  /// off its centre by more than a tenth of its radius, that scores at least kSolidRimScore and
+  /// more than it: arcs of shelf boards and neighbours close such a ghost around a real rim,
+  /// while nothing solid sits off centre inside a spool's own front rim (its bore is concentric).
+  static void dropEnclosingGhosts(std::vector<Circle>& flanges, const std::vector<Circle>& others = {});
   /// Indices of `flanges` by targetCost(), lowest first: the order in which candidates are tried
   /// as the target (the robot wants the spool in front of the puller). Reuses `order`'s memory.
   static void orderByReference(const std::vector<Circle>& flanges, const cv::Point2d& reference,

@@ -153,10 +153,11 @@ public:
               std::vector<Circle>& circles);
   /// detect()'s circles for `search` with polarity any, right after a detect() of `search` (dark
   /// or bright) on the same `edges`: only the other polarity's votes are cast, onto the
-  /// accumulator that one left, which halves the voting of a second search. Throws
-  /// std::logic_error when `search` does not match the last detect()'s accumulator.
+  /// accumulator that one left, which halves the voting of a second search. Only peaks centred
+  /// in `centres` (px; empty = anywhere) are measured. Throws std::logic_error when `search`
+  /// does not match the last detect()'s accumulator.
   void detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-                            std::vector<Circle>& circles);
+                            const cv::Rect2d& centres, std::vector<Circle>& circles);
 
   /// The rim circle of `search`'s radius range centred on `centre` (a known axis: a hole's
   /// centre), with no centre fit: a fit of a one-sided arc would follow whatever else lies on
@@ -199,14 +200,16 @@ private:
     float votes;
   };
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
-  /// The circles at the accumulator's peaks: radius, fit, score and duplicates (detect()).
+  /// The circles at the accumulator's peaks centred in `centres` (empty = anywhere): radius,
+  /// fit, score and duplicates (detect()).
   void circlesFromVotes(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-                        std::vector<Circle>& circles);
+                        const cv::Rect2d& centres, std::vector<Circle>& circles);
   /// Votes on the side `sign` (centreSign) of each edge.
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search, float sign);
   /// Radii voted for per edge: r_min, r_min + cell_, ... up to r_max.
   int radiusSteps(const HoughSearch& search) const;
-  void findPeaks(const HoughSearch& search, int max_peaks);
+  /// peaks_: the strongest `max_peaks` separate maxima centred in `centres` (empty = anywhere).
+  void findPeaks(const HoughSearch& search, int max_peaks, const cv::Rect2d& centres);
   bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                      const Peak& peak, double slack, const BackFlange& back, Circle& circle);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);

@@ -132,9 +132,10 @@ private:
   std::vector<EdgePoint> hole_edges_;
   std::vector<cv::Point2f> rim_;
   std::vector<Circle> flanges_;
-  std::vector<Circle> holes_;         ///< hole candidates of the target (or of the last search)
-  std::vector<Circle> target_holes_;  ///< the best candidate's while the others are searched
-  std::vector<Circle> first_holes_;   ///< the first search's target's during the flange_retry search
+  std::vector<Circle> holes_;          ///< hole candidates of the target (or of the last search)
+  std::vector<Circle> target_holes_;   ///< the best candidate's while the others are searched
+  std::vector<Circle> first_holes_;    ///< the first search's target's during the flange_retry search
+  std::vector<Circle> first_flanges_;  ///< the first search's candidates during the flange_retry search
   std::vector<Circle> lenses_;
   std::vector<std::size_t> order_;
 };

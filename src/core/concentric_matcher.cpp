@@ -132,7 +132,7 @@ double ConcentricMatcher::targetCost(const cv::Point2d& centre, double score, co
   return std::hypot(centre.x - reference.x, centre.y - reference.y) / std::clamp(score / kSolidRimScore, 1e-3, 1.0);
 }
 
-void ConcentricMatcher::dropEnclosingGhosts(std::vector<Circle>& flanges)
+void ConcentricMatcher::dropEnclosingGhosts(std::vector<Circle>& flanges, const std::vector<Circle>& others)
 {
   auto encloses = [](const Circle& ghost, const Circle& rim)
   {
@@ -144,9 +144,11 @@ void ConcentricMatcher::dropEnclosingGhosts(std::vector<Circle>& flanges)
   std::uint64_t ghosts = 0;
   const std::size_t n = std::min<std::size_t>(flanges.size(), 64);
   for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = 0; j < n; ++j)
-      if (encloses(flanges[i], flanges[j]))
-        ghosts |= std::uint64_t{1} << i;
+  {
+    const auto ghost = [&](const Circle& rim) { return encloses(flanges[i], rim); };
+    if (std::any_of(flanges.begin(), flanges.end(), ghost) || std::any_of(others.begin(), others.end(), ghost))
+      ghosts |= std::uint64_t{1} << i;
+  }
   std::size_t kept = 0;
   for (std::size_t i = 0; i < flanges.size(); ++i)
     if (i >= n || !(ghosts >> i & 1U))

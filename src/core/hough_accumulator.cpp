@@ -603,7 +603,7 @@ int HoughAccumulator::radiusSteps(const HoughSearch& search) const
   return std::max(1, static_cast<int>(std::ceil((search.r_max - search.r_min) / cell_)) + 1);
 }
 
-void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
+void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks, const cv::Rect2d& centres)
 {
   peaks_.clear();
   // 3x3 binomial smoothing (zero border) spreads each vote over its neighbours, so a centre
@@ -640,7 +640,9 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks)
       const float dyden = up[x] - 2 * v + down[x];
       const float ox = dxden < 0 ? 0.5f * (row[x - 1] - row[x + 1]) / dxden : 0.0f;
       const float oy = dyden < 0 ? 0.5f * (up[x] - down[x]) / dyden : 0.0f;
-      peaks_.push_back({origin_.x + (x + ox) * cell_, origin_.y + (y + oy) * cell_, v});
+      const cv::Point2d centre(origin_.x + (x + ox) * cell_, origin_.y + (y + oy) * cell_);
+      if (centres.empty() || centres.contains(centre))
+        peaks_.push_back({centre.x, centre.y, v});
     }
   }
   std::sort(peaks_.begin(), peaks_.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
@@ -990,11 +992,12 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
 
   vote(edges, search);
   has_votes_ = true;
-  circlesFromVotes(edges, image_size, search, circles);
+  circlesFromVotes(edges, image_size, search, {}, circles);
 }
 
 void HoughAccumulator::detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                                            const HoughSearch& search, std::vector<Circle>& circles)
+                                            const HoughSearch& search, const cv::Rect2d& centres,
+                                            std::vector<Circle>& circles)
 {
   if (search.r_min != voted_.r_min || search.r_max != voted_.r_max || search.center_window != voted_.center_window ||
       search.polarity != voted_.polarity)
@@ -1009,13 +1012,14 @@ void HoughAccumulator::detectEitherPolarity(const std::vector<EdgePoint>& edges,
     vote(edges, search, -centreSign(search.polarity));
     voted_ = either;
   }
-  circlesFromVotes(edges, image_size, either, circles);
+  circlesFromVotes(edges, image_size, either, centres, circles);
 }
 
 void HoughAccumulator::circlesFromVotes(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                                        const HoughSearch& search, std::vector<Circle>& circles)
+                                        const HoughSearch& search, const cv::Rect2d& centres,
+                                        std::vector<Circle>& circles)
 {
-  findPeaks(search, 2 * search.max_circles);
+  findPeaks(search, 2 * search.max_circles, centres);
 
   for (const Peak& peak : peaks_)
   {

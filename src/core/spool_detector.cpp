@@ -128,9 +128,24 @@ bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const Hou
   either.polarity = Polarity::kAny;
   HoughSearch strict = hole_search;
   strict.min_score = std::max(hole_search.min_score, kRetryHoleScore);
+  // Only flanges whose hole can be nearer the reference than `cost` can win: their centres lie
+  // within cost + the widest hole window's reach (that of the largest flange) of it.
+  cv::Rect2d centres;
+  if (std::isfinite(cost))
+  {
+    Circle largest;
+    largest.x = reference.x;
+    largest.y = reference.y;
+    largest.r = largest.r_vertical = flange_search.r_max;
+    HoughSearch window = hole_search;
+    matcher_.narrowHoleSearch(largest, preprocessed_.size(), window);
+    const double reach = cost + std::max(window.center_window.width, window.center_window.height);
+    centres = cv::Rect2d(reference.x - reach, reference.y - reach, 2.0 * reach, 2.0 * reach);
+  }
   std::swap(holes_, first_holes_);
-  flange_hough_.detectEitherPolarity(edges_, preprocessed_.size(), flange_search, flanges_);
-  ConcentricMatcher::dropEnclosingGhosts(flanges_);
+  std::swap(flanges_, first_flanges_);
+  flange_hough_.detectEitherPolarity(edges_, preprocessed_.size(), flange_search, centres, flanges_);
+  ConcentricMatcher::dropEnclosingGhosts(flanges_, first_flanges_);
   SpoolDetection second;
   if (selectTarget(reference, either, strict, SpoolEvidence::kHole, cost, second) < cost)
   {

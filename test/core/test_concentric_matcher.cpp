@@ -126,6 +126,10 @@ TEST(ConcentricMatcher, DropsGhostsThatEncloseASolidRimOffTheirCentre)
   for (const Circle& c : flanges)
     kept.push_back(c.x);
   EXPECT_EQ(kept, (std::vector<double>{130, 300, 302, 500, 530, 700, 770}));
+  // The solid rim may come from another list (the first search's candidates).
+  std::vector<Circle> ghost{circle(100, 60, 80, 0.5)};
+  ConcentricMatcher::dropEnclosingGhosts(ghost, {circle(130, 60, 40, 0.9)});
+  EXPECT_TRUE(ghost.empty());
   std::vector<Circle> none;
   ConcentricMatcher::dropEnclosingGhosts(none);
   EXPECT_TRUE(none.empty());

@@ -191,7 +191,7 @@ TEST(HoughAccumulator, EitherPolarityAfterADarkSearchEqualsAnAnySearch)
   ASSERT_EQ(dark.size(), 1u);
   EXPECT_NEAR(dark[0].x, 80, 0.3);
   std::vector<Circle> either;
-  hough.detectEitherPolarity(edges, img.size(), search, either);
+  hough.detectEitherPolarity(edges, img.size(), search, {}, either);
 
   HoughSearch any = search;
   any.polarity = Polarity::kAny;
@@ -206,14 +206,24 @@ TEST(HoughAccumulator, EitherPolarityAfterADarkSearchEqualsAnAnySearch)
     EXPECT_NEAR(either[i].r, scratch[i].r, 1e-3);
   }
 
+  // Peaks only where asked: about the bright disc, the bright disc alone.
+  hough.detect(edges, img.size(), search, dark);
+  std::vector<Circle> near;
+  hough.detectEitherPolarity(edges, img.size(), search, cv::Rect2d(180, 40, 80, 80), near);
+  ASSERT_EQ(near.size(), 1u);
+  const Circle& bright = either[0].x > 150 ? either[0] : either[1];
+  EXPECT_NEAR(bright.x, 220, 0.3);
+  EXPECT_NEAR(near[0].x, bright.x, 1e-3);
+  EXPECT_NEAR(near[0].r, bright.r, 1e-3);
+
   // Only right after a detect() of that search: its votes are what is added to.
   HoughSearch other = search;
   other.r_max = 45;
   hough.detect(edges, img.size(), search, dark);
-  EXPECT_THROW(hough.detectEitherPolarity(edges, img.size(), other, either), std::logic_error);
+  EXPECT_THROW(hough.detectEitherPolarity(edges, img.size(), other, {}, either), std::logic_error);
   // Nothing voted (no edges), nothing found.
   hough.detect({}, img.size(), search, dark);
-  hough.detectEitherPolarity({}, img.size(), search, either);
+  hough.detectEitherPolarity({}, img.size(), search, {}, either);
   EXPECT_TRUE(either.empty());
 }
 
