@@ -168,3 +168,41 @@ TEST(FailureKinds, FaintRingWithoutABoreDiscIsNoHole)
     EXPECT_TRUE(detector.detect(frame.image, PixelFormat::kBgr8).detected);
   }
 }
+
+namespace
+{
+// Frame `index` of `count` of the hard set (seed `seed`) at 640x480: the detector's flange is the
+// target's.
+void expectTargetFlange(int seed, int index, int count)
+{
+  SCOPED_TRACE("hard seed " + std::to_string(seed) + " #" + std::to_string(index));
+  SceneParams scene;
+  CameraPose pose;
+  spool_vision::setFrame(FrameSet::kHard, seed, index, count, scene, pose);
+  const SpoolRenderer renderer(spool_vision::setCamera(FrameSet::kHard, {640, 480}));
+  const RenderedFrame frame = renderer.render(scene, pose);
+  const auto target = spool_vision::targetSpool(frame.truth);
+  ASSERT_TRUE(target);
+  SpoolDetector detector;
+  detector.setCamera(renderer.camera());
+  const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
+      << "detected (" << d.flange.x << ", " << d.flange.y << ") r " << d.flange.r << ", target (" << target->flange.x
+      << ", " << target->flange.y << ") r " << target->flange.r;
+}
+}  // namespace
+
+// A glossy face under a lamp, lighter than the shelf: the spool right in front (1.5 deg off)
+// was no dark-rim candidate, and a dark neighbour 20 deg off was reported (flange_retry).
+TEST(FailureKinds, ALighterFaceInFrontIsNotPassedOverForADarkNeighbour)
+{
+  expectTargetFlange(13, 124, 200);
+}
+
+// A concentric rib fitted as a second candidate, inside the rim: the rim measured about the
+// bore replaces it (it scores better and is larger by more than the concentric tolerance).
+TEST(FailureKinds, ARibFittedInsideTheRimGivesWayToTheRimAboutTheBore)
+{
+  expectTargetFlange(12, 190, 200);
+}
