@@ -142,8 +142,10 @@ bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const Hou
     const double reach = cost + std::max(window.center_window.width, window.center_window.height);
     centres = cv::Rect2d(reference.x - reach, reference.y - reach, 2.0 * reach, 2.0 * reach);
   }
-  std::swap(holes_, first_holes_);
-  std::swap(flanges_, first_flanges_);
+  // Copies, not swaps: each buffer keeps its role and so its grown capacity (no allocation in
+  // the steady state whichever search wins).
+  first_holes_ = holes_;
+  first_flanges_ = flanges_;
   flange_hough_.detectEitherPolarity(edges_, preprocessed_.size(), flange_search, centres, flanges_);
   ConcentricMatcher::dropEnclosingGhosts(flanges_, first_flanges_);
   SpoolDetection second;
@@ -152,7 +154,7 @@ bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const Hou
     result = second;
     return true;
   }
-  std::swap(holes_, first_holes_);
+  holes_ = first_holes_;
   return false;
 }
 
