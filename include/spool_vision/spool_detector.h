@@ -83,8 +83,9 @@ private:
   void extractHoleEdges(const cv::Rect2d& centres, double reach, const LinearLight* linear = nullptr);
   /// Picks the target among the flange candidates (flanges_, found in `flange_search`) and
   /// finds its hole in `hole_search` (thesis Rule 2); without a hole rim, `evidence` decides.
-  /// Returns the target's cost (ConcentricMatcher::targetCost(), px), infinite without a hole
-  /// rim; candidates that cannot cost less than `bound` are not tried.
+  /// Returns the target's cost (ConcentricMatcher::targetCost(), px); infinite without a hole
+  /// rim, and in mode cht (no cost there). Candidates that cannot cost less than `bound` are
+  /// not tried.
   double selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, const HoughSearch& hole_search,
                       SpoolEvidence evidence, double bound, SpoolDetection& result);
   /// flange_retry: the flange search again with either polarity (after flange_hough_.detect() of

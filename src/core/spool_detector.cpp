@@ -16,6 +16,21 @@ namespace
 {
 /// selectTarget()'s cost when no candidate has a concentric hole rim.
 constexpr double kNoMatch = std::numeric_limits<double>::infinity();
+
+/// A search of `polarity` needing (1 - `sensitivity`) of the rim, its radii the configured ones
+/// where set (> 0), else the ones derived from the distance range (px).
+HoughSearch houghSearch(const HoughParams& hp, Polarity polarity, double sensitivity, double r_min_set,
+                        double r_min_derived, double r_max_set, double r_max_derived)
+{
+  HoughSearch search;
+  search.r_min = r_min_set > 0.0 ? r_min_set : r_min_derived;
+  search.r_max = r_max_set > 0.0 ? r_max_set : r_max_derived;
+  search.polarity = polarity;
+  search.min_score = 1.0 - sensitivity;
+  search.min_visible_fraction = hp.min_visible_fraction;
+  search.max_circles = hp.max_candidates;
+  return search;
+}
 }  // namespace
 
 SpoolDetector::SpoolDetector(const DetectorParams& params)
@@ -83,22 +98,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   double hole_min = 0.0;
   double hole_max = 0.0;
   geometry.radiusRanges(flange_min, flange_max, hole_min, hole_max);
-  auto pick = [](double configured, double derived) { return configured > 0.0 ? configured : derived; };
-
-  HoughSearch flange_search;
-  flange_search.r_min = pick(hp.flange_radius_min, flange_min);
-  flange_search.r_max = pick(hp.flange_radius_max, flange_max);
-  flange_search.polarity = hp.flange_polarity;
-  flange_search.min_score = 1.0 - hp.sensitivity;
-  flange_search.min_visible_fraction = hp.min_visible_fraction;
-  flange_search.max_circles = hp.max_candidates;
-  HoughSearch hole_search;
-  hole_search.polarity = hp.hole_polarity;
-  hole_search.min_score = 1.0 - hp.hole_sensitivity;
-  hole_search.min_visible_fraction = hp.min_visible_fraction;
-  hole_search.max_circles = hp.max_candidates;
-  hole_search.r_min = pick(hp.hole_radius_min, hole_min);
-  hole_search.r_max = pick(hp.hole_radius_max, hole_max);
+  const HoughSearch flange_search = houghSearch(hp, hp.flange_polarity, hp.sensitivity, hp.flange_radius_min,
+                                                flange_min, hp.flange_radius_max, flange_max);
+  const HoughSearch hole_search = houghSearch(hp, hp.hole_polarity, hp.hole_sensitivity, hp.hole_radius_min, hole_min,
+                                              hp.hole_radius_max, hole_max);
   const cv::Point2d reference = geometry.reference(geometry.nominalDistance());
 
   SpoolDetection result;
