@@ -106,6 +106,9 @@ constexpr double kWorkingBearingMax = 20.0 * M_PI / 180.0;
 /// The insertion window (depth), where the lateral error is scored.
 constexpr double kInsertionDepthMin = SpoolRenderer::kAlignedDistanceMin;
 constexpr double kInsertionDepthMax = SpoolRenderer::kAlignedDistanceMax;
+/// m, how far inside the bore wall a truth-aligned frame must clear to count in
+/// Metrics::aligned_recall_clear: a tenth of t_f = (36 - 31) / 2 mm
+constexpr double kClearRecallSlack = 0.00025;
 
 /// One frame scored against its ground truth.
 struct FrameScore
@@ -135,6 +138,7 @@ struct FrameScore
   bool aligned_reported = false;     ///< the detector said aligned (on whatever it found)
   bool truth_aligned = false;        ///< the slot's spool: puller clears, in the insertion window
   bool truth_puller_clears = false;  ///< the slot's spool: the puller would not touch the bore wall
+  double truth_clearance = kNaN;     ///< m, the slot's spool: GroundTruth::puller_clearance
   double time_ms = 0.0;              ///< the detector's own time
 };
 
@@ -191,6 +195,10 @@ struct Metrics
   Spread axis_angle_error_deg;  ///< |deg|, same frames on the slot's spool
   Rate unsafe_aligned;          ///< reported aligned / frames where the puller would touch the bore (or no bore)
   Rate aligned_recall;          ///< reported aligned / frames where the truth is aligned
+  /// The same on the truth-aligned frames whose puller clears the bore wall by at least
+  /// kClearRecallSlack: a frame within a measurement error of the wall may go either way
+  /// without breaking the never-unsafe bar, one this far inside should not
+  Rate aligned_recall_clear;
   Spread hole_centre_error_px;  ///< hole-eligible frames (lit or dark) with a hole reported on a correct flange
   Spread hole_radius_error_px;
   Spread time_ms;  ///< every frame

@@ -228,6 +228,9 @@ struct GroundTruth
   /// the bore axis in the plane of the bore's front face and in that of its back end (bore_length
   /// along the axis); between them the miss is never larger.
   bool puller_clears = false;
+  /// m, t_f minus the larger of the two misses above: how far the puller clears the bore wall at
+  /// its tighter end (negative where it would touch)
+  double puller_clearance = SpoolDetection::kNaN;
   /// Ready to insert: puller_clears and kAlignedDistanceMin <= distance <= kAlignedDistanceMax.
   bool aligned = false;
   std::vector<NeighbourTruth> neighbours;  ///< spools beside the slot (a detector may see them)

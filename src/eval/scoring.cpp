@@ -106,6 +106,7 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
   s.aligned_reported = detection.aligned;
   s.truth_aligned = truth.aligned;
   s.truth_puller_clears = truth.puller_clears;
+  s.truth_clearance = truth.puller_clearance;
   s.hole_reported = detection.detected && detection.hole_detected;
 
   const std::vector<SpoolTruth> spools = renderedSpools(truth);
@@ -224,6 +225,7 @@ Metrics summarize(const std::vector<FrameScore>& scores)
     }
     m.unsafe_aligned.add(!s.truth_puller_clears, s.aligned_reported);
     m.aligned_recall.add(s.truth_aligned, s.aligned_reported);
+    m.aligned_recall_clear.add(s.truth_aligned && s.truth_clearance >= kClearRecallSlack, s.aligned_reported);
     times.push_back(s.time_ms);
   }
   m.distance_error = spreadOf(distance_errors);

@@ -1138,7 +1138,8 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   };
   gt.puller_miss = missAt(c);
   const double tolerance = 0.5 * (scene.hole_diameter - kPullerDiameter);
-  gt.puller_clears = gt.puller_miss <= tolerance && missAt(c + scene.bore_length * axis) <= tolerance;
+  gt.puller_clearance = tolerance - std::max(gt.puller_miss, missAt(c + scene.bore_length * axis));
+  gt.puller_clears = gt.puller_clearance >= 0.0;
   gt.aligned = gt.puller_clears && gt.distance >= kAlignedDistanceMin && gt.distance <= kAlignedDistanceMax;
   return gt;
 }
@@ -1442,6 +1443,7 @@ std::string groundTruthToJson(const GroundTruth& t)
   else
     out << "null";
   writeField(out, "puller_miss", t.puller_miss);
+  writeField(out, "puller_clearance", t.puller_clearance);
   writeXyz(out, "axis", t.axis[0], t.axis[1], t.axis[2]);
   writeField(out, "axis_angle", t.axis_angle);
   writeField(out, "axis_yaw", t.axis_yaw);

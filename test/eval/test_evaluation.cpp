@@ -360,15 +360,17 @@ TEST(Scoring, NaNDistancesAreLeftOutOfTheErrorStatistics)
 namespace
 {
 // The slot's spool at `depth` m in 3D: `lateral` m right of the puller, its axis `axis_angle`
-// rad off the optical axis; aligned when `clears` and in the insertion window.
-sv::GroundTruth spoolAt(double depth, double lateral, double axis_angle, bool clears)
+// rad off the optical axis, the puller clearing the bore wall by `clearance` m (negative: it
+// touches); aligned when it clears and is in the insertion window.
+sv::GroundTruth spoolAt(double depth, double lateral, double axis_angle, double clearance)
 {
   sv::GroundTruth t = slotSpool(330.0);
   t.distance = depth;
   t.lateral_offset = lateral;
   t.axis_angle = axis_angle;
-  t.puller_clears = clears;
-  t.aligned = clears && depth >= 0.5 && depth <= 0.6;
+  t.puller_clearance = clearance;
+  t.puller_clears = clearance >= 0.0;
+  t.aligned = t.puller_clears && depth >= 0.5 && depth <= 0.6;
   return t;
 }
 
@@ -387,10 +389,11 @@ TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
   constexpr double kDeg = M_PI / 180.0;
   // Truth and detection per frame; lateral errors 1, 2, 4 mm inside 50-60 cm, 10 mm at 80 cm
   // (outside the window, not counted); axis-angle errors 0.5, 1, 0.25, 2 deg.
-  const sv::GroundTruth a = spoolAt(0.55, 0.002, 0.2 * kDeg, true);
-  const sv::GroundTruth b = spoolAt(0.52, -0.010, 0.5 * kDeg, false);
-  const sv::GroundTruth c = spoolAt(0.60, 0.001, 0.0, true);
-  const sv::GroundTruth d = spoolAt(0.80, 0.0, 1.0 * kDeg, true);
+  // a clears the wall by 1 mm, c by 0.1 mm (within a measurement error of it), b touches it.
+  const sv::GroundTruth a = spoolAt(0.55, 0.002, 0.2 * kDeg, 0.001);
+  const sv::GroundTruth b = spoolAt(0.52, -0.010, 0.5 * kDeg, -0.0075);
+  const sv::GroundTruth c = spoolAt(0.60, 0.001, 0.0, 0.0001);
+  const sv::GroundTruth d = spoolAt(0.80, 0.0, 1.0 * kDeg, 0.0025);
   std::vector<sv::FrameScore> scores = {
       sv::scoreFrame(a, measured(a, 0.55 * 1.01, 0.003, 0.7 * kDeg, true)),    // aligned, rightly
       sv::scoreFrame(b, measured(b, 0.52, -0.012, -0.5 * kDeg, true)),         // aligned: the puller would touch
@@ -415,6 +418,8 @@ TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
   EXPECT_EQ(m.unsafe_aligned.hits, 1);
   EXPECT_EQ(m.aligned_recall.frames, 2);  // a and c
   EXPECT_EQ(m.aligned_recall.hits, 1);
+  EXPECT_EQ(m.aligned_recall_clear.frames, 1);  // a: c is within kClearRecallSlack of the wall
+  EXPECT_EQ(m.aligned_recall_clear.hits, 1);
 
   // A detector that does not measure the axis yet: counted as frames, no values, "not measured".
   scores[0] = sv::scoreFrame(a, measured(a, 0.55, 0.002, sv::FrameScore::kNaN, true));
@@ -429,12 +434,13 @@ TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
   group.metrics = unmeasured;
   r.setups = {{{group}}};
   const std::vector<sv::BarRow> rows = sv::poseRows(r, 0);
-  ASSERT_EQ(rows.size(), 10u);
+  ASSERT_EQ(rows.size(), 11u);
   EXPECT_EQ(rows[7].per_setup[0].measured, "n/a (not measured)");  // axis-angle p95
   EXPECT_TRUE(rows[7].per_setup[0].applies);
   EXPECT_FALSE(rows[7].per_setup[0].pass);
   EXPECT_EQ(rows[3].per_setup[0].measured, "0.00 mm (n = 1)");  // lateral p95
   EXPECT_EQ(rows[8].per_setup[0].measured, "0 of 0");
+  EXPECT_FALSE(rows[10].per_setup[0].applies);  // the recall clear of the wall: reported, no bar
 }
 
 TEST(Timing, TheSlowestFrameIsTheLeastOfItsRunsAndOnlyCandidatesRunAgain)
@@ -536,7 +542,7 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
     EXPECT_TRUE(sv::barsPass(r, s)) << s;
   EXPECT_EQ(sv::headlineRows(r, 0).size(), 12u);
   EXPECT_EQ(sv::headlineRows(r, 1).size(), 12u);
-  EXPECT_EQ(sv::poseRows(r, 2).size(), 10u);
+  EXPECT_EQ(sv::poseRows(r, 2).size(), 11u);
 
   // Issue 10's pose bars: on the distorted set at 640x480 only.
   r.setups[2].per_group[2].metrics.unsafe_aligned = {1, 900};

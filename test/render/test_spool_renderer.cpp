@@ -331,7 +331,7 @@ TEST(SpoolRenderer, DepthRangeAndAxisOnAYawedOffsetPose)
 
   const std::string json = sv::groundTruthToJson(gt);
   for (const char* key : {"\"range\": ", "\"position\": {\"x\": ", "\"axis\": {\"x\": ", "\"axis_yaw\": ",
-                          "\"puller_clears\": false", "\"distortion\": []"})
+                          "\"puller_clearance\": ", "\"puller_clears\": false", "\"distortion\": []"})
     EXPECT_NE(json.find(key), std::string::npos) << key << " in " << json;
 }
 
@@ -349,6 +349,7 @@ TEST(SpoolRenderer, ThePullerClearsOnlyWithinTheClearanceAtBothEndsOfTheBore)
   };
   const sv::GroundTruth half_degree = throughTheFaceCentre(0.5 * kDeg);
   EXPECT_NEAR(half_degree.puller_miss, 0.0, 1e-12);
+  EXPECT_NEAR(half_degree.puller_clearance, 0.0025 - 0.2 * std::tan(0.5 * kDeg), 1e-5);  // the back end decides
   EXPECT_TRUE(half_degree.puller_clears);
   EXPECT_TRUE(half_degree.aligned);
   const sv::GroundTruth one_degree = throughTheFaceCentre(1.0 * kDeg);
@@ -359,6 +360,7 @@ TEST(SpoolRenderer, ThePullerClearsOnlyWithinTheClearanceAtBothEndsOfTheBore)
 
   // Parallel axes: the lateral or vertical miss alone decides.
   EXPECT_TRUE(renderer.groundTruth(scene, pose(0.55, 0.0024)).puller_clears);
+  EXPECT_NEAR(renderer.groundTruth(scene, pose(0.55, 0.0024)).puller_clearance, 0.0001, 1e-6);
   EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0026)).puller_clears);
   EXPECT_TRUE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.0, 0.0, 0.0624)).puller_clears);
   EXPECT_FALSE(renderer.groundTruth(scene, pose(0.55, 0.0, 0.0, 0.0, 0.0626)).puller_clears);
