@@ -109,9 +109,11 @@ struct MatcherParams
 {
   MatchMode mode = MatchMode::kMcht;
   SpoolEvidence spool_evidence = SpoolEvidence::kBore;
-  double flange_only_score = 0.85;      ///< spool_evidence bore: least rim score of a flange without a hole rim
-  double bore_contrast = 0.05;          ///< spool_evidence bore: least bore/face contrast, fraction of full scale
-  double weak_hole_score = 0.55;        ///< a hole rim scoring below this counts only when its disc shows too
+  double flange_only_score = 0.85;  ///< spool_evidence bore: least rim score of a flange without a hole rim
+  double bore_contrast = 0.05;      ///< spool_evidence bore: least bore/face contrast, fraction of full scale
+  double weak_hole_score = 0.55;    ///< a hole rim scoring below this counts only when its disc shows too
+  /// The same on a flange cut by the frame border (SpoolDetector::kCutFlangeVisibleFraction)
+  double cut_flange_hole_score = 0.7;
   double concentric_tolerance = 0.005;  ///< rad, |hole centre - flange centre| per axis (4 px at f = 800 px)
   double hole_ratio_tolerance = 0.35;   ///< relative deviation from hole/flange diameter ratio
   double max_view_angle = 0.44;         ///< rad, widest view of the flange off its axis, sideways (~25 deg)

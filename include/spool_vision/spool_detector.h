@@ -110,12 +110,21 @@ private:
   /// holes_: the hole rims among hole_edges_ (hole_hough_), less those scoring under
   /// weak_hole_score whose disc does not differ from the face by bore_contrast.
   void detectHoles(const HoughSearch& hole_search);
+  /// Whether `match`'s hole is evidence of a bore: always on a flange with at least
+  /// kCutFlangeVisibleFraction of its rim in the frame; on one cut by the border only with a rim
+  /// scoring cut_flange_hole_score or a disc that differs from the face by bore_contrast.
+  bool holeCountsOn(const SpoolMatch& match) const;
   /// How much a disc of radius `r` px about `centre` (undistorted pixels) differs from the face
   /// around it, read where the lens puts it in the frame (fraction of full scale, 0 when not the
   /// same way on all four sides).
   double boreContrast(const cv::Point2d& centre, double r) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
+
+  /// Below this fraction of its rim in the frame a flange fit is often a neighbour's back flange
+  /// or its joint silhouette with the front one, centred anywhere on that neighbour's face
+  /// (whose own centre is out of view): a label's corner or rib arcs there close hole-sized rings.
+  static constexpr double kCutFlangeVisibleFraction = 0.7;
 
   DetectorParams params_;
   Preprocessor preprocessor_;

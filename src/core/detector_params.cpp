@@ -137,6 +137,9 @@ std::vector<ParamSpec> buildSpecs()
       number("weak_hole_score", FIELD(matcher.weak_hole_score), 0.0, 1.0, "",
              "a hole rim scoring below this counts only where its disc also differs from the face by "
              "bore_contrast (0 = every hole rim counts)"),
+      number("cut_flange_hole_score", FIELD(matcher.cut_flange_hole_score), 0.0, 1.0, "",
+             "the same on a flange with under 70% of its rim in the frame, often a neighbour's back flange "
+             "centred on its face (0 = as weak_hole_score)"),
       number("concentric_tolerance", FIELD(matcher.concentric_tolerance), 0.0, 0.1, "rad",
              "hole centre within this view angle of the flange centre on each axis (thesis: 2 px at f = 200 px)"),
       number("hole_ratio_tolerance", FIELD(matcher.hole_ratio_tolerance), 0.0, 10.0, "",

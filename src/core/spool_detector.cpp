@@ -264,7 +264,7 @@ double SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSear
     if (nearest >= best_cost)
       continue;
     const std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
-    if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y))
+    if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y) || !holeCountsOn(*match))
       continue;
     const double cost = ConcentricMatcher::targetCost({match->hole->x, match->hole->y}, match->flange.score, reference);
     if (cost < best_cost)
@@ -442,6 +442,14 @@ void SpoolDetector::detectHoles(const HoughSearch& hole_search)
                                 return h.score < mp.weak_hole_score && boreContrast({h.x, h.y}, h.r) < mp.bore_contrast;
                               }),
                holes_.end());
+}
+
+bool SpoolDetector::holeCountsOn(const SpoolMatch& match) const
+{
+  const Circle& hole = *match.hole;
+  return match.flange.visible_fraction >= kCutFlangeVisibleFraction ||
+         hole.score >= params_.matcher.cut_flange_hole_score ||
+         boreContrast({hole.x, hole.y}, hole.r) >= params_.matcher.bore_contrast;
 }
 
 std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch& hole_search) const
