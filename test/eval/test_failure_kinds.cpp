@@ -38,6 +38,18 @@ SceneParams webcamScene()
   return s;
 }
 
+// Frame `index` of `count` of `set` drawn from `seed`, rendered at `width` columns (4:3);
+// `detector` gets the set's camera.
+RenderedFrame renderSetFrame(FrameSet set, int seed, int index, int count, int width, SpoolDetector& detector)
+{
+  SceneParams scene;
+  CameraPose pose;
+  spool_vision::setFrame(set, seed, index, count, scene, pose);
+  const SpoolRenderer renderer(spool_vision::setCamera(set, {width, width * 3 / 4}));
+  detector.setCamera(renderer.camera());
+  return renderer.render(scene, pose);
+}
+
 struct Case
 {
   SceneParams scene;
@@ -153,14 +165,9 @@ TEST(FailureKinds, FaintRingWithoutABoreDiscIsNoHole)
         Frame{FrameSet::kNegatives, "negatives", 6, 100, 320}})
   {
     SCOPED_TRACE(std::string(f.name) + " #" + std::to_string(f.index) + " at " + std::to_string(f.width) + " columns");
-    SceneParams scene;
-    CameraPose pose;
-    spool_vision::setFrame(f.set, 11, f.index, f.count, scene, pose);
-    const SpoolRenderer renderer(spool_vision::setCamera(f.set, {f.width, f.width * 3 / 4}));
-    const RenderedFrame frame = renderer.render(scene, pose);
-    ASSERT_FALSE(frame.truth.spool_centre_in_view);
     SpoolDetector detector;
-    detector.setCamera(renderer.camera());
+    const RenderedFrame frame = renderSetFrame(f.set, 11, f.index, f.count, f.width, detector);
+    ASSERT_FALSE(frame.truth.spool_centre_in_view);
     EXPECT_FALSE(detector.detect(frame.image, PixelFormat::kBgr8).detected);
     spool_vision::DetectorParams every_ring;
     every_ring.matcher.weak_hole_score = 0.0;
@@ -179,14 +186,9 @@ TEST(FailureKinds, AWeakRingOnAFlangeCutByTheBorderIsNoHole)
   for (const auto& [seed, index] : {std::pair{16, 55}, std::pair{16, 169}, std::pair{19, 35}})
   {
     SCOPED_TRACE("negatives seed " + std::to_string(seed) + " #" + std::to_string(index));
-    SceneParams scene;
-    CameraPose pose;
-    spool_vision::setFrame(FrameSet::kNegatives, seed, index, 200, scene, pose);
-    const SpoolRenderer renderer(spool_vision::setCamera(FrameSet::kNegatives, {160, 120}));
-    const RenderedFrame frame = renderer.render(scene, pose);
-    ASSERT_FALSE(frame.truth.spool_centre_in_view);
     SpoolDetector detector;
-    detector.setCamera(renderer.camera());
+    const RenderedFrame frame = renderSetFrame(FrameSet::kNegatives, seed, index, 200, 160, detector);
+    ASSERT_FALSE(frame.truth.spool_centre_in_view);
     EXPECT_FALSE(detector.detect(frame.image, PixelFormat::kBgr8).detected);
     spool_vision::DetectorParams uncut;
     uncut.matcher.cut_flange_hole_score = 0.0;
@@ -204,15 +206,10 @@ namespace
 void expectTargetFlange(int seed, int index, int count)
 {
   SCOPED_TRACE("hard seed " + std::to_string(seed) + " #" + std::to_string(index));
-  SceneParams scene;
-  CameraPose pose;
-  spool_vision::setFrame(FrameSet::kHard, seed, index, count, scene, pose);
-  const SpoolRenderer renderer(spool_vision::setCamera(FrameSet::kHard, {640, 480}));
-  const RenderedFrame frame = renderer.render(scene, pose);
+  SpoolDetector detector;
+  const RenderedFrame frame = renderSetFrame(FrameSet::kHard, seed, index, count, 640, detector);
   const auto target = spool_vision::targetSpool(frame.truth);
   ASSERT_TRUE(target);
-  SpoolDetector detector;
-  detector.setCamera(renderer.camera());
   const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
   ASSERT_TRUE(d.detected);
   EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
