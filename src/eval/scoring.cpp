@@ -121,22 +121,23 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
     s.neighbours_in_view |= s.has_target && inView(truth.camera, spools[i].flange);
     s.on_other_spool |= s.detected && flangeMatches(spools[i].flange, detection.flange);
   }
-  // The hole is judged where its truth is known: on the slot's spool, or anywhere when there is
-  // no spool to pick (then any hole is false).
+  // The hole is judged where its truth is known: on the slot's spool when the detection is
+  // judged against it (not on a neighbour tied with it), or anywhere when there is no spool to
+  // pick (then any hole is false).
   if (!target_index)
   {
     s.hole_judged = true;
     return s;
   }
   const SpoolTruth& target = spools[*target_index];
-  s.hole_judged = target.in_slot;
+  const SpoolTruth& judged = spools[*judged_index];
+  s.hole_judged = judged.in_slot;
 
   s.flange_eligible = target.flange.visible_fraction >= 0.5 && target.distance >= kWorkingDistanceMin &&
                       target.distance <= kWorkingDistanceMax && std::abs(target.yaw) <= kWorkingBearingMax;
-  const bool bore_in_view = s.flange_eligible && target.in_slot && truth.hole_in_view;
+  const bool bore_in_view = s.flange_eligible && judged.in_slot && truth.hole_in_view;
   s.hole_eligible = bore_in_view && truth.bore_visible;
   s.hole_dark_eligible = bore_in_view && !truth.bore_visible;
-  const SpoolTruth& judged = spools[*judged_index];
   s.correct = s.detected && flangeMatches(judged.flange, detection.flange);
   s.on_other_spool &= !s.correct;
   s.hole_correct = s.correct && s.hole_reported && judged.in_slot &&

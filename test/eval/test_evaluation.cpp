@@ -284,6 +284,20 @@ TEST(Scoring, TwoSpoolsWithinOneDegreeOfTheSameBearingAreBothTheTarget)
   EXPECT_FALSE(on_slot.on_other_spool);
   EXPECT_NEAR(on_slot.distance_error, 0.01 / 0.8, 1e-12);  // against the spool it lies on
 
+  // The slot's spool the target, the detection on the tied neighbour: right, and its hole,
+  // whose truth is not known, is neither found nor missed.
+  sv::GroundTruth slot_first = slotSpool(319.5 - 119.0);
+  addNeighbour(slot_first, 319.5 + 120.0);
+  ASSERT_TRUE(sv::targetSpool(slot_first)->in_slot);
+  sv::SpoolDetection on_tied = flangeAt(circleOf(slot_first.neighbours[0].flange), 0.82);
+  on_tied.hole_detected = true;
+  on_tied.hole = circleOf(*slot_first.hole, 239.0);
+  const sv::FrameScore tied = sv::scoreFrame(slot_first, on_tied);
+  EXPECT_TRUE(tied.correct);
+  EXPECT_FALSE(tied.hole_eligible);
+  EXPECT_FALSE(tied.hole_judged);
+  EXPECT_EQ(sv::summarize({tied}).false_hole.frames, 0);
+
   t.neighbours.clear();
   addNeighbour(t, 319.5 - 100.0);  // -7.1 deg: 1.4 deg nearer, no longer a tie
   const sv::FrameScore not_tied = sv::scoreFrame(t, flangeAt(circleOf(*t.flange)));
