@@ -84,6 +84,14 @@ sv::SpoolDetection flangeAt(const sv::Circle& flange, double distance = 0.8, dou
   return d;
 }
 
+// `detection` with `hole` reported as its hole rim.
+sv::SpoolDetection withHole(sv::SpoolDetection detection, const sv::Circle& hole)
+{
+  detection.hole_detected = true;
+  detection.hole = hole;
+  return detection;
+}
+
 sv::DetectorParams config(const std::string& name)
 {
   sv::DetectorParams params;
@@ -163,9 +171,7 @@ TEST(Scoring, TheHoleMustBeWithinOnePixelOfTheFrontRimFrom480Rows)
 
   // scoreFrame takes the tolerance from the frame's camera: 1.5 px off is no hole at 640x480.
   const sv::GroundTruth t = slotSpool(330.0);
-  sv::SpoolDetection d = flangeAt(circleOf(*t.flange));
-  d.hole_detected = true;
-  d.hole = circleOf(*t.hole, 1.5, 0.5);
+  const sv::SpoolDetection d = withHole(flangeAt(circleOf(*t.flange)), circleOf(*t.hole, 1.5, 0.5));
   const sv::FrameScore off = sv::scoreFrame(t, d);
   EXPECT_TRUE(off.correct);
   EXPECT_FALSE(off.hole_correct);
@@ -177,9 +183,7 @@ TEST(Scoring, AHoleInViewButDarkCountsOnlyForTheDarkHoleRate)
 {
   sv::GroundTruth dark = slotSpool(330.0);
   dark.bore_visible = false;
-  sv::SpoolDetection d = flangeAt(circleOf(*dark.flange));
-  d.hole_detected = true;
-  d.hole = circleOf(*dark.hole, 0.5);
+  const sv::SpoolDetection d = withHole(flangeAt(circleOf(*dark.flange)), circleOf(*dark.hole, 0.5));
   const sv::FrameScore found = sv::scoreFrame(dark, d);
   EXPECT_TRUE(found.hole_dark_eligible);
   EXPECT_FALSE(found.hole_eligible);
@@ -208,9 +212,8 @@ TEST(Scoring, ADetectionOnTheTargetIsCorrectAndMeasured)
 {
   sv::GroundTruth t = slotSpool(330.0);
   addNeighbour(t, 330.0 + 380.0);  // centre out of view: not a neighbour "in view"
-  sv::SpoolDetection d = flangeAt(circleOf(*t.flange, 1.0), 0.808, t.yaw + 0.001);
-  d.hole_detected = true;
-  d.hole = circleOf(*t.hole, 0.5);
+  const sv::SpoolDetection d =
+      withHole(flangeAt(circleOf(*t.flange, 1.0), 0.808, t.yaw + 0.001), circleOf(*t.hole, 0.5));
 
   const sv::FrameScore s = sv::scoreFrame(t, d);
   EXPECT_TRUE(s.has_target);
@@ -289,9 +292,8 @@ TEST(Scoring, TwoSpoolsWithinOneDegreeOfTheSameBearingAreBothTheTarget)
   sv::GroundTruth slot_first = slotSpool(319.5 - 119.0);
   addNeighbour(slot_first, 319.5 + 120.0);
   ASSERT_TRUE(sv::targetSpool(slot_first)->in_slot);
-  sv::SpoolDetection on_tied = flangeAt(circleOf(slot_first.neighbours[0].flange), 0.82);
-  on_tied.hole_detected = true;
-  on_tied.hole = circleOf(*slot_first.hole, 239.0);
+  const sv::SpoolDetection on_tied =
+      withHole(flangeAt(circleOf(slot_first.neighbours[0].flange), 0.82), circleOf(*slot_first.hole, 239.0));
   const sv::FrameScore tied = sv::scoreFrame(slot_first, on_tied);
   EXPECT_TRUE(tied.correct);
   EXPECT_FALSE(tied.hole_eligible);
@@ -325,9 +327,8 @@ TEST(Scoring, WithoutASpoolCentreInViewAnyFlangeIsAFalseSpool)
   addNeighbour(t, 820.0);  // rim partly in view, centre not
   EXPECT_FALSE(sv::targetSpool(t));
 
-  sv::SpoolDetection on_partial_rim = flangeAt(circleOf(t.neighbours[0].flange));
-  on_partial_rim.hole_detected = true;
-  on_partial_rim.hole = circleOf(circleAt(820.0, 280.0, 17.0));
+  const sv::SpoolDetection on_partial_rim =
+      withHole(flangeAt(circleOf(t.neighbours[0].flange)), circleOf(circleAt(820.0, 280.0, 17.0)));
   const sv::FrameScore hit = sv::scoreFrame(t, on_partial_rim);
   const sv::FrameScore quiet = sv::scoreFrame(t, sv::SpoolDetection());
   EXPECT_FALSE(hit.has_target);
@@ -345,9 +346,7 @@ TEST(Scoring, WithoutASpoolCentreInViewAnyFlangeIsAFalseSpool)
 TEST(Scoring, AHoleOffTheBoreIsFalse)
 {
   const sv::GroundTruth t = slotSpool(330.0);
-  sv::SpoolDetection d = flangeAt(circleOf(*t.flange));
-  d.hole_detected = true;
-  d.hole = circleOf(*t.hole, 6.0);
+  const sv::SpoolDetection d = withHole(flangeAt(circleOf(*t.flange)), circleOf(*t.hole, 6.0));
   const sv::FrameScore s = sv::scoreFrame(t, d);
   EXPECT_TRUE(s.correct);
   EXPECT_FALSE(s.hole_correct);
