@@ -144,7 +144,8 @@ struct HoughSearch
 /// Two-stage CHT: every edge point votes for centres along its gradient over the radius range
 /// into a 2-D accumulator; peaks (after non-maximum suppression) get a radius from a histogram
 /// of supporting edge distances, and a least-squares fit of the supporting points refines the
-/// centre, the radius and the vertical semi-axis to sub-pixel precision.
+/// centre, the radius and the vertical semi-axis to sub-pixel precision. Without a
+/// center_window, a peak whose measured support is under 70% of min_score is dropped unrefined.
 class HoughAccumulator
 {
 public:
