@@ -516,12 +516,15 @@ std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const 
   if (const auto hole = matcher_.matchHole(flange, holes_))
   {
     // The spool's support is the better of the two rims: a front rim partly hidden by its own
-    // back flange must not lose the target to a neighbour for it. The rim about the hole
-    // replaces the fit only when that is off the hole by more than concentric_tolerance, or
-    // smaller than it by as much (the fit took a rib inside the rim): an ellipse fit on the rim
-    // measures better than a circle about the hole.
+    // back flange must not lose the target to a neighbour for it. The rim about the hole, when
+    // better supported, replaces the fit only when that is off the hole by more than
+    // concentric_tolerance, or smaller than it by as much (the fit took a rib inside the rim):
+    // an ellipse fit on the rim measures better than a circle about the hole. On a rim cut by
+    // the frame border a tie will do (scores cap at 1): the fit to its arc is the less certain.
     Circle kept = flange;
-    if (const auto front = frontAbout(*hole); front && front->score > flange.score)
+    const bool cut = flange.visible_fraction < kCutFlangeVisibleFraction;
+    if (const auto front = frontAbout(*hole);
+        front && (front->score > flange.score || (cut && front->score >= flange.score)))
     {
       const double tol = matcher_.tolerancePx();
       if (std::abs(hole->x - flange.x) > tol || std::abs(hole->y - flange.y) > tol ||
