@@ -125,6 +125,11 @@ private:
   /// or its joint silhouette with the front one, centred anywhere on that neighbour's face
   /// (whose own centre is out of view): a label's corner or rib arcs there close hole-sized rings.
   static constexpr double kCutFlangeVisibleFraction = 0.7;
+  /// Whether under kCutFlangeVisibleFraction of `flange`'s rim is in the frame.
+  static bool cutByBorder(const Circle& flange)
+  {
+    return flange.visible_fraction < kCutFlangeVisibleFraction;
+  }
 
   DetectorParams params_;
   Preprocessor preprocessor_;

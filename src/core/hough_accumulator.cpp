@@ -23,11 +23,6 @@ constexpr float kSobelFullScale = 4.0f * 255.0f;
 // Edge direction must agree with the radial direction within ~30 degrees to support a rim.
 constexpr float kMinRadialAlignment = 0.866f;
 constexpr int kRimSamples = 64;
-// A peak of a whole-frame search whose rim support, measured about its coarse cell, is under
-// this share of the least a circle needs is not refined: such peaks seldom refine into a circle
-// and then mostly onto a stronger rim beside them (a duplicate), while refining them took a
-// fifth of the time per frame at 160x120.
-constexpr double kMinRefineSupport = 0.7;
 
 // Sign that turns a dark-to-bright gradient into the direction from the rim to the centre; 0 when
 // either direction may be (Polarity::kAny).
@@ -1032,10 +1027,10 @@ void HoughAccumulator::circlesFromVotes(const std::vector<EdgePoint>& edges, cv:
     // The centre is known to about a cell; the radius histogram must tolerate that much.
     if (!measureRadius(edges, image_size, search, peak, cell_ + 1.0, {}, circle))
       continue;
-    const Circle measured = circle;
     const bool windowed = !search.center_window.empty();
     if (!windowed && circle.score < kMinRefineSupport * search.min_score)
       continue;
+    const Circle measured = circle;
     if (!refine(edges, image_size, search, circle) ||
         (windowed && !search.center_window.contains(cv::Point2d(circle.x, circle.y))))
     {

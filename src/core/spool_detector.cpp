@@ -447,8 +447,7 @@ void SpoolDetector::detectHoles(const HoughSearch& hole_search)
 bool SpoolDetector::holeCountsOn(const SpoolMatch& match) const
 {
   const Circle& hole = *match.hole;
-  return match.flange.visible_fraction >= kCutFlangeVisibleFraction ||
-         hole.score >= params_.matcher.cut_flange_hole_score ||
+  return !cutByBorder(match.flange) || hole.score >= params_.matcher.cut_flange_hole_score ||
          boreContrast({hole.x, hole.y}, hole.r) >= params_.matcher.bore_contrast;
 }
 
@@ -522,9 +521,8 @@ std::optional<SpoolMatch> SpoolDetector::matchSpool(const Circle& flange, const 
     // an ellipse fit on the rim measures better than a circle about the hole. On a rim cut by
     // the frame border a tie will do (scores cap at 1): the fit to its arc is the less certain.
     Circle kept = flange;
-    const bool cut = flange.visible_fraction < kCutFlangeVisibleFraction;
     if (const auto front = frontAbout(*hole);
-        front && (front->score > flange.score || (cut && front->score >= flange.score)))
+        front && (cutByBorder(flange) ? front->score >= flange.score : front->score > flange.score))
     {
       const double tol = matcher_.tolerancePx();
       if (std::abs(hole->x - flange.x) > tol || std::abs(hole->y - flange.y) > tol ||
