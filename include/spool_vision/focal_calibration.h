@@ -1,7 +1,6 @@
 // Focal length from spool images at known distances (thesis Eq. 3.2/3.3, Appendix B).
 #pragma once
 
-#include <string>
 #include <vector>
 
 namespace spool_vision
@@ -29,23 +28,6 @@ struct FocalFit
 /// Throws std::invalid_argument without samples or on non-positive values.
 FocalFit fitFocalLength(const std::vector<FocalSample>& samples, double object_diameter = 0.35, int image_height = 120,
                         double lens_focal_length = 0.004);
-
-/// Reads samples from a CSV: '#' comment lines, then a header naming a distance column (name
-/// contains "distance", unit suffix _m, _cm or _mm) and a diameter column (suffix _px), then
-/// one sample per line. Throws std::runtime_error naming the file and line.
-std::vector<FocalSample> loadFocalSamplesCsv(const std::string& path);
-
-/// One spool image taken at a tape-measured distance.
-struct CalibrationImage
-{
-  std::string path;
-  double distance = 0.0;  ///< m
-};
-
-/// Reads a list of calibration images: the same CSV layout with an `image` column instead of
-/// the diameter (e.g. "image,distance_m"). Relative image paths are resolved against the CSV's
-/// folder. Throws std::runtime_error naming the file and line.
-std::vector<CalibrationImage> loadCalibrationImagesCsv(const std::string& path);
 
 /// Fields of view (deg, horizontal) that bound the focal lengths a calibration may find.
 constexpr double kWidestFieldOfView = 120.0;

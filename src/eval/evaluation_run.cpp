@@ -6,8 +6,8 @@
 #include <map>
 #include <string>
 
-#include "spool_vision/config_io.h"
-#include "spool_vision/evaluation.h"
+#include "spool_vision/io/config_io.h"
+#include "spool_vision/eval/evaluation.h"
 
 namespace spool_vision
 {

@@ -3,7 +3,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "spool_vision/evaluation.h"
+#include "spool_vision/eval/evaluation.h"
 #include "spool_vision/spool_geometry.h"
 
 namespace spool_vision

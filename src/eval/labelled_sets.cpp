@@ -2,7 +2,7 @@
 #include <random>
 #include <string>
 
-#include "spool_vision/evaluation.h"
+#include "spool_vision/eval/evaluation.h"
 
 namespace spool_vision
 {

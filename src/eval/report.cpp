@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "chart.h"
-#include "spool_vision/evaluation.h"
+#include "spool_vision/eval/evaluation.h"
 
 namespace spool_vision
 {

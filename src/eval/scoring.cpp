@@ -1,7 +1,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "spool_vision/evaluation.h"
+#include "spool_vision/eval/evaluation.h"
 
 namespace spool_vision
 {

@@ -1,4 +1,4 @@
-#include "spool_vision/config_io.h"
+#include "spool_vision/io/config_io.h"
 
 #include <fstream>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "spool_vision/spool_renderer.h"
+#include "spool_vision/render/spool_renderer.h"
 
 #include <algorithm>
 #include <array>

@@ -13,7 +13,7 @@
 #include "cli_args.h"
 #include "image_file.h"
 #include "json_writer.h"
-#include "spool_vision/config_io.h"
+#include "spool_vision/io/config_io.h"
 #include "spool_vision/overlay.h"
 #include "spool_vision/spool_detector.h"
 

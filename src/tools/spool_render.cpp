@@ -17,9 +17,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_args.h"
-#include "spool_vision/config_io.h"
-#include "spool_vision/evaluation.h"
-#include "spool_vision/spool_renderer.h"
+#include "spool_vision/io/config_io.h"
+#include "spool_vision/eval/evaluation.h"
+#include "spool_vision/render/spool_renderer.h"
 
 namespace sv = spool_vision;
 

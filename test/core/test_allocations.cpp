@@ -20,7 +20,7 @@
 
 #include "spool_vision/camera_model.h"
 #include "spool_vision/spool_detector.h"
-#include "spool_vision/spool_renderer.h"
+#include "spool_vision/render/spool_renderer.h"
 #include "synthetic.h"
 
 extern "C"

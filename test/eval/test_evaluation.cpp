@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "spool_vision/config_io.h"
-#include "spool_vision/evaluation.h"
+#include "spool_vision/io/config_io.h"
+#include "spool_vision/eval/evaluation.h"
 
 namespace sv = spool_vision;
 

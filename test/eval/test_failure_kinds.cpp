@@ -7,7 +7,7 @@
 #include <cmath>
 #include <string>
 
-#include "spool_vision/evaluation.h"
+#include "spool_vision/eval/evaluation.h"
 
 using spool_vision::CameraPose;
 using spool_vision::FrameSet;

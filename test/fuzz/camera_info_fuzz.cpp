@@ -8,7 +8,7 @@
 
 #include <yaml-cpp/exceptions.h>
 
-#include "spool_vision/config_io.h"
+#include "spool_vision/io/config_io.h"
 #include "yaml_file.h"
 
 namespace sv = spool_vision;

@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "spool_vision/spool_renderer.h"
+#include "spool_vision/render/spool_renderer.h"
 
 namespace sv = spool_vision;
 

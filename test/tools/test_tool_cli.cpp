@@ -14,8 +14,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_process.h"
-#include "spool_vision/config_io.h"
-#include "spool_vision/spool_renderer.h"
+#include "spool_vision/io/config_io.h"
+#include "spool_vision/render/spool_renderer.h"
 
 namespace fs = std::filesystem;
 namespace sv = spool_vision;

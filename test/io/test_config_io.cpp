@@ -5,7 +5,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "spool_vision/config_io.h"
+#include "spool_vision/io/config_io.h"
 
 using spool_vision::DetectorParams;
 using spool_vision::loadCameraInfoYaml;

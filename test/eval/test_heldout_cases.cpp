@@ -12,7 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "spool_vision/config_io.h"
+#include "spool_vision/io/config_io.h"
 #include "spool_vision/spool_detector.h"
 
 using spool_vision::CameraIntrinsics;
