@@ -2,6 +2,9 @@
 
 #include <fstream>
 #include <iterator>
+#include <map>
+#include <regex>
+#include <string>
 
 #include <yaml-cpp/yaml.h>
 
@@ -42,13 +45,59 @@ TEST(ConfigIo, DefaultYamlListsEveryKeyWithTheBuiltInValue)
   EXPECT_EQ(root.size(), spool_vision::paramSpecs().size());
 }
 
-TEST(ConfigIo, ReadmeDocumentsEveryKey)
+TEST(ConfigIo, DefaultYamlCommentsGiveTheTableUnitsAndChoices)
 {
+  // "key: value  # [unit] why", continued on indented comment lines: yaml-cpp drops comments,
+  // so the lines are read as text.
+  std::ifstream in(kConfigDir + "/default.yaml");
+  std::map<std::string, std::string> comments;
+  const std::regex key_line(R"(^([a-z0-9_]+):\s*\S+\s*#\s*(.*)$)");
+  const std::regex continued(R"(^\s+#\s*(.*)$)");
+  std::string key;
+  std::smatch m;
+  for (std::string line; std::getline(in, line);)
+  {
+    if (std::regex_match(line, m, key_line))
+      comments[key = m[1]] = m[2];
+    else if (!key.empty() && std::regex_match(line, m, continued))
+      comments[key] += " " + m[1].str();
+    else
+      key.clear();
+  }
+  for (const auto& spec : spool_vision::paramSpecs())
+  {
+    SCOPED_TRACE(spec.key);
+    ASSERT_EQ(comments.count(spec.key), 1u) << "no comment on the key's line";
+    const std::string& comment = comments[spec.key];
+    if (spec.type == spool_vision::ParamType::kChoice)
+      for (const auto& choice : spec.choices)
+        EXPECT_NE(comment.find(choice), std::string::npos) << "the comment should name '" << choice << "'";
+    else
+      EXPECT_EQ(comment.rfind("[" + (spec.unit.empty() ? std::string("-") : spec.unit) + "]", 0), 0u)
+          << "the comment should start with the unit: " << comment;
+  }
+}
+
+TEST(ConfigIo, ReadmeTableIsTheParamTable)
+{
+  // Each README row is the table's: key, default, unit, allowed values, meaning.
   std::ifstream in(kConfigDir + "/../README.md");
   const std::string readme((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   ASSERT_FALSE(readme.empty());
+  const DetectorParams defaults;
   for (const auto& spec : spool_vision::paramSpecs())
-    EXPECT_NE(readme.find("| `" + spec.key + "` |"), std::string::npos) << spec.key << " is missing from README.md";
+  {
+    std::string allowed;
+    if (spec.type == spool_vision::ParamType::kChoice)
+      for (size_t i = 0; i < spec.choices.size(); ++i)
+        allowed += (i ? "\\|" : "") + spec.choices[i];
+    else
+      allowed = "[" + spool_vision::formatParamValue(spec.min_value) + ", " +
+                spool_vision::formatParamValue(spec.max_value) + "]";
+    const std::string row = "| `" + spec.key + "` | " + spool_vision::formatParamValue(spec.get(defaults)) + " | " +
+                            spec.unit + " | " + allowed + " | " + spec.doc + " |";
+    EXPECT_NE(readme.find(row + "\n"), std::string::npos) << "README.md should list\n" << row;
+  }
 }
 
 TEST(ConfigIo, SeedYamlIsTheThesisPipeline)

@@ -32,6 +32,12 @@ TEST(ReconfigureTable, EveryCfgKeyMatchesTheParamSpec)
     SCOPED_TRACE(d->name);
     const ParamSpec* spec = findParamSpec(d->name);
     ASSERT_NE(spec, nullptr);
+    // The tooltip names the table's unit, as "[unit]" at its end.
+    const std::string unit = spec->unit.empty() ? "" : " [" + spec->unit + "]";
+    EXPECT_TRUE(d->description.size() >= unit.size() &&
+                d->description.compare(d->description.size() - unit.size(), unit.size(), unit) == 0 &&
+                (!unit.empty() || d->description.back() != ']'))
+        << "'" << d->description << "' should end with '" << unit << "'";
     switch (spec->type)
     {
       case ParamType::kChoice:
