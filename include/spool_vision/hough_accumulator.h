@@ -220,7 +220,15 @@ private:
   void findPeaks(const HoughSearch& search, int max_peaks, const cv::Rect2d& centres);
   bool measureRadius(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                      const Peak& peak, double slack, const BackFlange& back, Circle& circle);
+  /// scores_[i]: the share of the visible rim (can show over `back`) of radius lo + i about
+  /// `peak` that histogram_ supports, summed over the bins within slack / 2; 0 outside the search
+  /// or with too little of the rim in view. Returns the best.
+  double scoreRadii(cv::Size image_size, const HoughSearch& search, const Peak& peak, double lo, int bins, double slack,
+                    const BackFlange& back);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
+  /// taken_: the indices into near_ of the edges in the band `band` px wide about the axis-aligned
+  /// ellipse (cx, cy, semi_x, semi_y) that support it for `sign` (centreSign); returns their count.
+  std::size_t pickBand(double cx, double cy, double semi_x, double semi_y, double band, float sign);
   /// Fills near_ (near_count_) with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
   /// zero = all round).
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,

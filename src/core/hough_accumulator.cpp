@@ -664,7 +664,6 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
                                      const HoughSearch& search, const Peak& peak, double slack, const BackFlange& back,
                                      Circle& circle)
 {
-  const float sign = centreSign(search.polarity);
   // An empty range (fitAt() about a flange larger than the search allows) has no rim.
   if (!(search.r_max >= search.r_min))
     return false;
@@ -676,18 +675,45 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
   if (support_bins_.size() < edges.size())
     support_bins_.resize(edges.size());
   radiusBins(edges.data(), edges.size(), {static_cast<float>(peak.x), static_cast<float>(peak.y)},
-             static_cast<float>(lo), static_cast<float>(hi), sign, bins, support_bins_.data());
+             static_cast<float>(lo), static_cast<float>(hi), centreSign(search.polarity), bins, support_bins_.data());
   for (std::size_t i = 0; i < edges.size(); ++i)
     histogram_[support_bins_[i]] += 1.0f;
 
-  // Score each radius (3-bin window) by its supported fraction of the visible rim. Among the
-  // radii scoring close to the best, the largest wins: ribs and labels are concentric but
-  // smaller than the rim.
-  double best_score = 0.0;
+  double best_score = scoreRadii(image_size, search, peak, lo, bins, slack, back);
+  if (best_score <= 0.0)
+    return false;
+  // Among the radii scoring close to the best, the largest wins: ribs and labels are concentric
+  // but smaller than the rim. Unless a back flange is modelled, whose crescent would be the
+  // outer ring: then the best-scoring one.
+  const std::vector<double>& scores = scores_;
   double best_r = 0.0;
-  double best_vis = 0.0;
-  std::vector<double>& scores = scores_;
-  scores.assign(static_cast<size_t>(bins), 0.0);
+  for (int i = bins - 2; i >= 1; --i)
+  {
+    if (scores[static_cast<size_t>(i)] >= (back.growth > 0.0 ? 1.0 : 0.8) * best_score)
+    {
+      // Take the local maximum at or just inside the first strong radius from outside.
+      int j = i;
+      while (j > 1 && scores[static_cast<size_t>(j - 1)] > scores[static_cast<size_t>(j)])
+        --j;
+      best_r = lo + j;
+      best_score = scores[static_cast<size_t>(j)];
+      break;
+    }
+  }
+  circle.x = peak.x;
+  circle.y = peak.y;
+  circle.r = best_r;
+  circle.r_vertical = circle.r_horizontal = best_r;
+  circle.score = std::min(1.0, best_score);
+  circle.visible_fraction = visibleRimFraction(peak.x, peak.y, best_r, image_size);
+  return true;
+}
+
+double HoughAccumulator::scoreRadii(cv::Size image_size, const HoughSearch& search, const Peak& peak, double lo,
+                                    int bins, double slack, const BackFlange& back)
+{
+  double best_score = 0.0;
+  scores_.assign(static_cast<size_t>(bins), 0.0);
   // A centre known to `slack` px spreads a rim over as many bins: each radius sums the bins
   // within half of that (at least one each side), so a big rim found from a coarse cell is not
   // outscored by a sharper ring inside it.
@@ -708,34 +734,10 @@ bool HoughAccumulator::measureRadius(const std::vector<EdgePoint>& edges, cv::Si
     if (vis < search.min_visible_fraction || can_show < 0.5 * search.min_visible_fraction)
       continue;
     // Capped: a rim is at most fully supported; a double edge (a raised rib, noise) is no more.
-    scores[static_cast<size_t>(i)] = std::min(1.0, support / (2.0 * kPi * r * can_show));
-    best_score = std::max(best_score, scores[static_cast<size_t>(i)]);
+    scores_[static_cast<size_t>(i)] = std::min(1.0, support / (2.0 * kPi * r * can_show));
+    best_score = std::max(best_score, scores_[static_cast<size_t>(i)]);
   }
-  if (best_score <= 0.0)
-    return false;
-  for (int i = bins - 2; i >= 1; --i)
-  {
-    // Concentric rings: the outer one is the rim (ribs lie inside), unless a back flange is
-    // modelled, whose crescent would be the outer ring: then the best-scoring one.
-    if (scores[static_cast<size_t>(i)] >= (back.growth > 0.0 ? 1.0 : 0.8) * best_score)
-    {
-      // Take the local maximum at or just inside the first strong radius from outside.
-      int j = i;
-      while (j > 1 && scores[static_cast<size_t>(j - 1)] > scores[static_cast<size_t>(j)])
-        --j;
-      best_r = lo + j;
-      best_score = scores[static_cast<size_t>(j)];
-      break;
-    }
-  }
-  best_vis = visibleRimFraction(peak.x, peak.y, best_r, image_size);
-  circle.x = peak.x;
-  circle.y = peak.y;
-  circle.r = best_r;
-  circle.r_vertical = circle.r_horizontal = best_r;
-  circle.score = std::min(1.0, best_score);
-  circle.visible_fraction = best_vis;
-  return true;
+  return best_score;
 }
 
 void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner,
@@ -758,18 +760,74 @@ void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv:
   near_count_ = kept;
 }
 
+namespace
+{
+// The rim model refine() iterates: an axis-aligned ellipse (a circle seen from a yawed camera is
+// stretched horizontally) and the radius of the circle fitted with it.
+struct RimModel
+{
+  double cx;
+  double cy;
+  double semi_x;
+  double semi_y;
+  double r_fit;
+};
+
+// One least-squares step on moments taken in coordinates centred on `model` and scaled by
+// 1 / mean_r: the circle fit, replaced by the axis-aligned ellipse fit where that stays within
+// 20% of the circle on both axes (a yawed rim; further off, the ellipse has fitted clutter).
+// False when no circle fits.
+bool fitRimModel(const RimMoments& m, double mean_r, RimModel& model)
+{
+  double ux = 0.0;
+  double uy = 0.0;
+  double ur = 0.0;
+  if (!m.fitCircle(ux, uy, ur))
+    return false;
+  const double r_fit = ur * mean_r;
+  RimModel next{model.cx + ux * mean_r, model.cy + uy * mean_r, r_fit, r_fit, r_fit};
+  double ex = 0.0;
+  double ey = 0.0;
+  double sx = 0.0;
+  double sy = 0.0;
+  if (m.fitEllipse(ex, ey, sx, sy) && std::abs(sx * mean_r / r_fit - 1.0) < 0.2 &&
+      std::abs(sy * mean_r / r_fit - 1.0) < 0.2)
+  {
+    next.cx = model.cx + ex * mean_r;
+    next.cy = model.cy + ey * mean_r;
+    next.semi_x = sx * mean_r;
+    next.semi_y = sy * mean_r;
+  }
+  model = next;
+  return true;
+}
+}  // namespace
+
+std::size_t HoughAccumulator::pickBand(double cx, double cy, double semi_x, double semi_y, double band, float sign)
+{
+  // The band test compares squares: no square root for points outside.
+  const double b = band / std::sqrt(semi_x * semi_y);
+  const double rho_min2 = std::pow(std::max(0.0, 1.0 - b), 2);
+  const double rho_max2 = std::pow(1.0 + b, 2);
+  inEllipseBand(near_.data(), near_count_, {cx, cy}, 1.0 / (semi_x * semi_x), 1.0 / (semi_y * semi_y), rho_min2,
+                rho_max2, sign, keep_.data());
+  // Picked without a branch per edge: every index is written, the count advances over the kept.
+  if (taken_.size() < near_count_)
+    taken_.resize(near_count_);
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < near_count_; ++i)
+  {
+    taken_[n] = static_cast<std::uint32_t>(i);
+    n += keep_[i];
+  }
+  return n;
+}
+
 bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                               Circle& circle)
 {
   const float sign = centreSign(search.polarity);
-  // Current rim model: an axis-aligned ellipse (a circle seen from a yawed camera is
-  // stretched horizontally). Starts as the Hough circle.
-  double cx = circle.x;
-  double cy = circle.y;
-  double semi_x = circle.r;
-  double semi_y = circle.r;
-  double r_fit = circle.r;
-  int count = 0;
+  RimModel model{circle.x, circle.y, circle.r, circle.r, circle.r};
   // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught whole;
   // then it narrows onto the fitted model.
   static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
@@ -780,79 +838,35 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   // Four fitting passes, then one that only counts the support of the final model: a fit to a
   // short arc can move far, and the score must describe the circle returned, not the last input.
   constexpr int kFits = 4;
-  // The points each pass takes, as indices into near_: picked without a branch per edge, then
-  // summed in a loop of their own.
-  if (taken_.size() < near_count_)
-    taken_.resize(near_count_);
+  std::size_t count = 0;
   for (int iteration = 0; iteration <= kFits; ++iteration)
   {
-    const double band = std::max(1.5, kBands[iteration] * r_fit);
-    const double mean_r = std::sqrt(semi_x * semi_y);
-    const double scale = 1.0 / mean_r;
-
-    // Rim points in the band about the current model, in coordinates centred and scaled on it
-    // (for conditioning). The band test compares squares: no square root for points outside.
-    const double b = band / mean_r;
-    const double rho_min2 = std::pow(std::max(0.0, 1.0 - b), 2);
-    const double rho_max2 = std::pow(1.0 + b, 2);
-    const double inv_x2 = 1.0 / (semi_x * semi_x);
-    const double inv_y2 = 1.0 / (semi_y * semi_y);
-    inEllipseBand(near_.data(), near_count_, {cx, cy}, inv_x2, inv_y2, rho_min2, rho_max2, sign, keep_.data());
-    std::uint32_t* taken = taken_.data();
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < near_count_; ++i)
-    {
-      taken[n] = static_cast<std::uint32_t>(i);
-      n += keep_[i];
-    }
-    count = static_cast<int>(n);
+    const double band = std::max(1.5, kBands[iteration] * model.r_fit);
+    count = pickBand(model.cx, model.cy, model.semi_x, model.semi_y, band, sign);
     if (iteration == kFits)
       break;
-    RimMoments m;
-    for (std::size_t k = 0; k < n; ++k)
-      m.add((near_[taken[k]].x - cx) * scale, (near_[taken[k]].y - cy) * scale);
     if (count < 8)
       return false;
-
-    double ux = 0.0;
-    double uy = 0.0;
-    double ur = 0.0;
-    if (!m.fitCircle(ux, uy, ur))
+    // Rim points in coordinates centred and scaled on the model (for conditioning).
+    const double mean_r = std::sqrt(model.semi_x * model.semi_y);
+    const double scale = 1.0 / mean_r;
+    RimMoments m;
+    for (std::size_t k = 0; k < count; ++k)
+      m.add((near_[taken_[k]].x - model.cx) * scale, (near_[taken_[k]].y - model.cy) * scale);
+    if (!fitRimModel(m, mean_r, model))
       return false;
-    r_fit = ur * mean_r;
-    double ncx = cx + ux * mean_r;
-    double ncy = cy + uy * mean_r;
-    double nsx = r_fit;
-    double nsy = r_fit;
-    // The axis-aligned ellipse (a yawed circle) replaces the circle when it is close to it.
-    double ex = 0.0;
-    double ey = 0.0;
-    double sx = 0.0;
-    double sy = 0.0;
-    if (m.fitEllipse(ex, ey, sx, sy) && std::abs(sx * mean_r / r_fit - 1.0) < 0.2 &&
-        std::abs(sy * mean_r / r_fit - 1.0) < 0.2)
-    {
-      ncx = cx + ex * mean_r;
-      ncy = cy + ey * mean_r;
-      nsx = sx * mean_r;
-      nsy = sy * mean_r;
-    }
-    cx = ncx;
-    cy = ncy;
-    semi_x = nsx;
-    semi_y = nsy;
   }
-  circle.x = cx;
-  circle.y = cy;
-  circle.r = r_fit;
-  circle.r_vertical = semi_y;
-  circle.r_horizontal = semi_x;
-  circle.visible_fraction = visibleRimFraction(cx, cy, r_fit, image_size);
+  circle.x = model.cx;
+  circle.y = model.cy;
+  circle.r = model.r_fit;
+  circle.r_vertical = model.semi_y;
+  circle.r_horizontal = model.semi_x;
+  circle.visible_fraction = visibleRimFraction(model.cx, model.cy, model.r_fit, image_size);
   if (circle.visible_fraction < search.min_visible_fraction)
     return false;
   // Thin 8-connected edges put about 0.9 points per unit of arc length on a rim.
-  circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * r_fit * circle.visible_fraction));
-  return r_fit >= search.r_min * 0.9 && r_fit <= search.r_max * 1.1;
+  circle.score = std::min(1.0, static_cast<double>(count) / (0.9 * 2.0 * kPi * model.r_fit * circle.visible_fraction));
+  return model.r_fit >= search.r_min * 0.9 && model.r_fit <= search.r_max * 1.1;
 }
 
 bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
