@@ -6,8 +6,8 @@
 #include <map>
 #include <string>
 
-#include "spool_vision/io/config_io.h"
 #include "spool_vision/eval/evaluation.h"
+#include "spool_vision/io/config_io.h"
 
 namespace spool_vision
 {
@@ -271,6 +271,129 @@ int FrameCounts::of(FrameSet set) const
   return 0;
 }
 
+namespace
+{
+const std::vector<LampCondition> kLampConditions = {LampCondition::kS1S2, LampCondition::kS1S3, LampCondition::kS2S3,
+                                                    LampCondition::kAll};
+
+// The tables of the detector-variant analyses and of the lamp split, a row per variant or lamp
+// condition, a cell per setup, to be filled in; `variant_count` gets the number of variant rows.
+std::vector<VariantAnalysis> emptyAnalyses(const std::vector<AnalysisSpec>& specs, std::size_t setups,
+                                           int& variant_count, VariantAnalysis& lamps)
+{
+  std::vector<VariantAnalysis> analyses;
+  variant_count = 0;
+  for (const AnalysisSpec& spec : specs)
+  {
+    VariantAnalysis analysis{spec.key, spec.title, spec.note, {}};
+    for (const VariantSpec& row : spec.rows)
+      analysis.rows.push_back({row.label, std::vector<Metrics>(setups)});
+    analyses.push_back(analysis);
+    variant_count += static_cast<int>(spec.rows.size());
+  }
+  lamps = {"lamps",
+           "Lamp conditions (thesis Fig. 4.13-4.15)",
+           "The main and negatives sets split by lamp condition, configuration as loaded. Thesis, 20 "
+           "samples, SC success: S1+S2 80%, S1+S3 60%, S2+S3 85%, all 90%; BC: S1+S2 95%, S1+S3 90%.",
+           {}};
+  for (LampCondition c : kLampConditions)
+    lamps.rows.push_back({toString(c), std::vector<Metrics>(setups)});
+  return analyses;
+}
+
+// Every set some group scores, once.
+std::vector<FrameSet> scoredSets(const EvaluationConfig& config)
+{
+  std::vector<FrameSet> sets;
+  for (const SetGroup& group : config.groups)
+    for (FrameSet set : group.sets)
+      if (std::find(sets.begin(), sets.end(), set) == sets.end())
+        sets.push_back(set);
+  return sets;
+}
+
+// Each set at `size`, as many frames as the most any of the setups `of_size` scores.
+std::map<FrameSet, std::vector<RenderedFrame>> renderSets(const EvaluationConfig& config,
+                                                          const std::vector<FrameSet>& sets,
+                                                          const std::vector<std::size_t>& of_size, cv::Size size,
+                                                          const Progress& progress)
+{
+  const std::string size_name = std::to_string(size.width) + "x" + std::to_string(size.height);
+  std::map<FrameSet, std::vector<RenderedFrame>> rendered;
+  for (FrameSet set : sets)
+  {
+    int count = 0;
+    for (std::size_t s : of_size)
+      count = std::max(count, config.setups[s].counts.of(set));
+    rendered[set] = renderSet(SpoolRenderer(setCamera(set, size)), set, config.seed, count,
+                              labelled(progress, size_name + ": render " + setName(set) + " set"));
+  }
+  return rendered;
+}
+
+// Setup `s`'s cells of the variant analyses and of the lamp split, on the frames and scores of
+// its first group. Variants that come out equal to the configuration (or to each other) run once.
+void analyseVariants(const Setup& setup, std::size_t s, const std::vector<AnalysisSpec>& specs, int variant_count,
+                     const std::vector<RenderedFrame>& frames, const std::vector<FrameScore>& scores,
+                     const Progress& progress, EvaluationResult& result, VariantAnalysis& lamps)
+{
+  std::map<std::string, Metrics> by_params = {{paramsToYaml(setup.params), summarize(scores)}};
+  int done = 0;
+  for (std::size_t a = 0; a < specs.size(); ++a)
+    for (std::size_t r = 0; r < specs[a].rows.size(); ++r)
+    {
+      const DetectorParams params = withOverrides(setup.params, specs[a].rows[r].overrides);
+      auto [known, fresh] = by_params.try_emplace(paramsToYaml(params));
+      if (fresh)
+      {
+        SpoolDetector variant(params);
+        known->second = summarize(evaluate(variant, frames));
+      }
+      result.analyses[a].rows[r].per_setup[s] = known->second;
+      progress("", ++done, variant_count);
+    }
+  for (std::size_t c = 0; c < kLampConditions.size(); ++c)
+  {
+    std::vector<FrameScore> subset;
+    for (const FrameScore& score : scores)
+      if (score.lamps == kLampConditions[c])
+        subset.push_back(score);
+    lamps.rows[c].per_setup[s] = summarize(subset);
+  }
+}
+// Setup `s` on the frames of its size: each group scored, then the analyses on the first one.
+void scoreSetup(const EvaluationConfig& config, std::size_t s,
+                const std::map<FrameSet, std::vector<RenderedFrame>>& rendered, const std::vector<AnalysisSpec>& specs,
+                int variant_count, const Progress& progress, EvaluationResult& result, VariantAnalysis& lamps)
+{
+  const Setup& setup = config.setups[s];
+  auto step = [&](const std::string& what) { return labelled(progress, setup.name + ": " + what); };
+  SpoolDetector detector(setup.params);
+  // The radii follow the focal length, the same for every set of a size.
+  HoughCirclesBaseline baseline(
+      searchRadii(setup.params, CameraIntrinsics::thesisDefault(setup.size.width, setup.size.height)));
+  std::vector<RenderedFrame> first_group_frames;
+  std::vector<FrameScore> first_group_scores;
+  for (std::size_t g = 0; g < config.groups.size(); ++g)
+  {
+    std::vector<RenderedFrame> frames;
+    std::vector<FrameScore> scores;
+    step("score " + config.groups[g].name)("", 0, 1);
+    result.setups[s].per_group.push_back(
+        scoreGroup(setup, config.groups[g], rendered, detector, baseline, frames, scores));
+    step("score " + config.groups[g].name)("", 1, 1);
+    if (g == 0)
+    {
+      first_group_frames = std::move(frames);
+      first_group_scores = std::move(scores);
+    }
+  }
+  if (setup.analyses)
+    analyseVariants(setup, s, specs, variant_count, first_group_frames, first_group_scores, step("detector variants"),
+                    result, lamps);
+}
+}  // namespace
+
 EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& progress)
 {
   EvaluationResult result;
@@ -278,23 +401,8 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
   result.setups.resize(config.setups.size());
   const std::vector<AnalysisSpec> specs = variantAnalyses();
   int variant_count = 0;
-  for (const AnalysisSpec& spec : specs)
-  {
-    VariantAnalysis analysis{spec.key, spec.title, spec.note, {}};
-    for (const VariantSpec& row : spec.rows)
-      analysis.rows.push_back({row.label, std::vector<Metrics>(config.setups.size())});
-    result.analyses.push_back(analysis);
-    variant_count += static_cast<int>(spec.rows.size());
-  }
-  VariantAnalysis lamps{"lamps",
-                        "Lamp conditions (thesis Fig. 4.13-4.15)",
-                        "The main and negatives sets split by lamp condition, configuration as loaded. Thesis, 20 "
-                        "samples, SC success: S1+S2 80%, S1+S3 60%, S2+S3 85%, all 90%; BC: S1+S2 95%, S1+S3 90%.",
-                        {}};
-  const std::vector<LampCondition> lamp_conditions = {LampCondition::kS1S2, LampCondition::kS1S3, LampCondition::kS2S3,
-                                                      LampCondition::kAll};
-  for (LampCondition c : lamp_conditions)
-    lamps.rows.push_back({toString(c), std::vector<Metrics>(config.setups.size())});
+  VariantAnalysis lamps;
+  result.analyses = emptyAnalyses(specs, config.setups.size(), variant_count, lamps);
 
   const std::vector<PoseSpec> distance_poses = sweep({0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1}, 0.0, 0.0, 1.0);
   const std::vector<PoseSpec> yaw_poses = sweep({1.0, 0.9, 0.8}, -20.0, 20.0, 5.0);
@@ -303,93 +411,30 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
   result.distance_sweep.assign(distance_poses.size(), empty_point);
   result.yaw_sweep.assign(yaw_poses.size(), empty_point);
   result.tx_sweep.assign(tx_poses.size(), empty_point);
-
-  std::vector<FrameSet> sets;  // every set some group scores, once
-  for (const SetGroup& group : config.groups)
-    for (FrameSet set : group.sets)
-      if (std::find(sets.begin(), sets.end(), set) == sets.end())
-        sets.push_back(set);
+  const std::vector<FrameSet> sets = scoredSets(config);
 
   // Size by size: each set is rendered once per size and shared by that size's setups, then
   // dropped (a 640x480 set is ~1 MB a frame).
   std::vector<bool> done_setup(config.setups.size(), false);
-  for (size_t first = 0; first < config.setups.size(); ++first)
+  for (std::size_t first = 0; first < config.setups.size(); ++first)
   {
     if (done_setup[first])
       continue;
     const cv::Size size = config.setups[first].size;
-    std::vector<size_t> of_size;
-    for (size_t s = first; s < config.setups.size(); ++s)
+    std::vector<std::size_t> of_size;
+    for (std::size_t s = first; s < config.setups.size(); ++s)
       if (config.setups[s].size == size)
         of_size.push_back(s);
-    const std::string size_name = std::to_string(size.width) + "x" + std::to_string(size.height);
-    std::map<FrameSet, std::vector<RenderedFrame>> rendered;
-    for (FrameSet set : sets)
-    {
-      int count = 0;
-      for (size_t s : of_size)
-        count = std::max(count, config.setups[s].counts.of(set));
-      rendered[set] = renderSet(SpoolRenderer(setCamera(set, size)), set, config.seed, count,
-                                labelled(progress, size_name + ": render " + setName(set) + " set"));
-    }
+    std::map<FrameSet, std::vector<RenderedFrame>> rendered = renderSets(config, sets, of_size, size, progress);
 
-    for (size_t s : of_size)
+    for (std::size_t s : of_size)
     {
       done_setup[s] = true;
-      const Setup& setup = config.setups[s];
-      auto step = [&](const std::string& what) { return labelled(progress, setup.name + ": " + what); };
-      SpoolDetector detector(setup.params);
-      // The radii follow the focal length, the same for every set of a size.
-      HoughCirclesBaseline baseline(
-          searchRadii(setup.params, CameraIntrinsics::thesisDefault(size.width, size.height)));
-      std::vector<RenderedFrame> first_group_frames;
-      std::vector<FrameScore> first_group_scores;
-      for (size_t g = 0; g < config.groups.size(); ++g)
-      {
-        std::vector<RenderedFrame> frames;
-        std::vector<FrameScore> scores;
-        step("score " + config.groups[g].name)("", 0, 1);
-        const GroupResult group = scoreGroup(setup, config.groups[g], rendered, detector, baseline, frames, scores);
-        step("score " + config.groups[g].name)("", 1, 1);
-        result.setups[s].per_group.push_back(group);
-        if (g == 0)
-        {
-          first_group_frames = std::move(frames);
-          first_group_scores = std::move(scores);
-        }
-      }
-      if (!setup.analyses)
-        continue;
-
-      // Variants that come out equal to the configuration (or to each other) run once.
-      std::map<std::string, Metrics> by_params = {{paramsToYaml(setup.params), summarize(first_group_scores)}};
-      const Progress variants_progress = step("detector variants");
-      int done = 0;
-      for (size_t a = 0; a < specs.size(); ++a)
-        for (size_t r = 0; r < specs[a].rows.size(); ++r)
-        {
-          const DetectorParams params = withOverrides(setup.params, specs[a].rows[r].overrides);
-          auto [known, fresh] = by_params.try_emplace(paramsToYaml(params));
-          if (fresh)
-          {
-            SpoolDetector variant(params);
-            known->second = summarize(evaluate(variant, first_group_frames));
-          }
-          result.analyses[a].rows[r].per_setup[s] = known->second;
-          variants_progress("", ++done, variant_count);
-        }
-      for (size_t c = 0; c < lamp_conditions.size(); ++c)
-      {
-        std::vector<FrameScore> subset;
-        for (const FrameScore& score : first_group_scores)
-          if (score.lamps == lamp_conditions[c])
-            subset.push_back(score);
-        lamps.rows[c].per_setup[s] = summarize(subset);
-      }
+      scoreSetup(config, s, rendered, specs, variant_count, progress, result, lamps);
     }
     rendered.clear();
 
-    for (size_t s : of_size)
+    for (std::size_t s : of_size)
     {
       const Setup& setup = config.setups[s];
       if (!setup.analyses)

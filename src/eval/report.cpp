@@ -465,13 +465,13 @@ bool barsPass(const EvaluationResult& result, size_t index)
   return true;
 }
 
-void writeReport(const EvaluationResult& result, const std::string& dir_name)
+namespace
 {
-  namespace fs = std::filesystem;
-  const fs::path dir(dir_name);
-  fs::create_directories(dir);
-  const EvaluationConfig& config = result.config;
+// What was rendered and how many frames each setup scored.
+std::string introSection(const EvaluationResult& result)
+{
   std::ostringstream md;
+  const EvaluationConfig& config = result.config;
   std::vector<std::vector<std::string>> counts;
   for (const Setup& setup : config.setups)
     counts.push_back(
@@ -495,6 +495,13 @@ void writeReport(const EvaluationResult& result, const std::string& dir_name)
                       counts)
      << "\n";
 
+  return md.str();
+}
+
+// DESIGN.md §7: the bars per group and setup, and where the flange-eligible frames went.
+std::string headlineSection(const EvaluationResult& result)
+{
+  std::ostringstream md;
   md << "## Headline: DESIGN.md §7\n\n"
      << "One table per group of sets, a column per setup; each cell is the measured value, then the verdict and "
         "the bar where that bar applies at that setup (`default.yaml` bars per resolution as issue 9 sets them, "
@@ -508,6 +515,13 @@ void writeReport(const EvaluationResult& result, const std::string& dir_name)
      << "holes reported on a correct flange, against the bore's front rim:\n\n"
      << breakdown(result) << "\n";
 
+  return md.str();
+}
+
+// Issue 10: pose and alignment against the 3D truth.
+std::string poseSection(const EvaluationResult& result)
+{
+  std::ostringstream md;
   const std::vector<double>& lens = c270Distortion();
   md << "## Pose and alignment (issue 10)\n\n"
      << "Per group of sets and setup, against the renderer's 3D truth; issue 10's bars apply on the distorted set "
@@ -536,6 +550,13 @@ void writeReport(const EvaluationResult& result, const std::string& dir_name)
      << fixed(kClearRecallSlack * 1000.0, 2) << " mm (`puller_clearance`, a tenth of t_f).\n\n"
      << poseTable(result) << "\n";
 
+  return md.str();
+}
+
+// The scoring rules, in words.
+std::string scoringSection()
+{
+  std::ostringstream md;
   md << "## How a frame is scored\n\n"
      << "- **Target**: the spool in front of the robot, i.e. among the rendered spools whose flange centre is in "
         "view (the slot's spool and its neighbours), the one with the smallest |yaw| (bearing from the puller "
@@ -558,11 +579,14 @@ void writeReport(const EvaluationResult& result, const std::string& dir_name)
         "frame) and yaw error |measured - true|, against the target's own truth, over correct flanges on "
         "flange-eligible frames.\n\n";
 
-  if (analysedSetups(result).empty())
-  {
-    write(md.str(), dir);
-    return;
-  }
+  return md.str();
+}
+
+// The thesis' chapter 4 analyses, their charts saved in `dir`.
+std::string chapterFourSection(const EvaluationResult& result, const std::filesystem::path& dir)
+{
+  std::ostringstream md;
+  const EvaluationConfig& config = result.config;
   md << "## Thesis chapter 4 on rendered data\n\n"
      << "On the setups marked above; every variant runs on the same frames as the first headline table.\n\n";
   for (const VariantAnalysis& analysis : result.analyses)
@@ -586,7 +610,19 @@ void writeReport(const EvaluationResult& result, const std::string& dir_name)
      << "against the clearance t_f. Thesis: tx_r ≤ 0.25 cm within ±0.25° at 50 and 60 cm (0.26 cm at 60 cm, "
      << "0.25°).\n\n"
      << txSection(result, dir, tolerance);
-  write(md.str(), dir);
+  return md.str();
+}
+
+}  // namespace
+
+void writeReport(const EvaluationResult& result, const std::string& dir_name)
+{
+  const std::filesystem::path dir(dir_name);
+  std::filesystem::create_directories(dir);
+  std::string md = introSection(result) + headlineSection(result) + poseSection(result) + scoringSection();
+  if (!analysedSetups(result).empty())
+    md += chapterFourSection(result, dir);
+  write(md, dir);
 }
 
 }  // namespace spool_vision
