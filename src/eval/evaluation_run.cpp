@@ -124,9 +124,13 @@ struct PoseSpec
 std::vector<PoseSpec> sweep(const std::vector<double>& distances, double first_deg, double last_deg, double step_deg)
 {
   std::vector<PoseSpec> poses;
+  const int steps = static_cast<int>(std::floor((last_deg - first_deg) / step_deg + 1e-9)) + 1;
   for (double d : distances)
-    for (double a = first_deg; a <= last_deg + 1e-9; a += step_deg)
+  {
+    double a = first_deg;
+    for (int i = 0; i < steps; ++i, a += step_deg)
       poses.push_back({d, a * kDeg});
+  }
   return poses;
 }
 

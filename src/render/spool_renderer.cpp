@@ -49,7 +49,7 @@ struct Disc
 {
   double cx, cy, z, r_in2, r_out2;
   Material material;
-  int owner;      // index into Geometry::spools, -1 for other objects
+  int owner;      // index into SceneGeometry::spools, -1 for other objects
   bool textured;  // front flange face: ribs and label
 };
 
@@ -181,56 +181,314 @@ std::vector<Vec3> neighbourCentres(const SceneParams& p)
   return centres;
 }
 
+Vec3 toVec(const cv::Vec3d& v)
+{
+  return Vec3(v[0], v[1], v[2]);
+}
+
+// What a scene holds, as primitives the ray caster intersects: the shelf boards and clutter
+// boxes, then groups of discs and tubes (wall marks, the spools, the object), each primitive
+// with its own id (0 is the wall; the puller rod takes next_id).
+struct SceneGeometry
+{
+  double wall_z = 0.3;
+  double lower_board_top = 0.0;
+  double lower_board_bottom = 0.0;
+  double upper_board_bottom = 0.0;
+  double object_cx = 0.0;
+  double object_cy = 0.0;
+  std::vector<Box> boxes;  // the two shelf boards, then clutter boxes
+  std::vector<Vec3> clutter_colours;
+  std::vector<Group> groups;
+  std::vector<SpoolInfo> spools;
+  int next_id = 0;
+};
+
+// --- the scene description ---------------------------------------------------------------
+
+// Appends a group, its primitives numbered on from the last.
+void addGroup(Group g, SceneGeometry& geometry)
+{
+  g.first_id = geometry.next_id;
+  geometry.next_id += static_cast<int>(g.discs.size() + g.tubes.size());
+  geometry.groups.push_back(std::move(g));
+}
+
+void addSpool(const SceneParams& p, double cx, double z0, double label_angle, SceneGeometry& geometry)
+{
+  const double cy = SpoolRenderer::kHoleHeight;
+  const double big = 0.5 * p.flange_diameter;
+  const double hole = 0.5 * p.hole_diameter;
+  const double wind = 0.5 * p.winding_diameter;
+  const double len = p.bore_length;
+  const double th = p.flange_thickness;
+  const int owner = static_cast<int>(geometry.spools.size());
+  geometry.spools.push_back({cx, cy, label_angle});
+
+  Group g;
+  g.centre = Vec3(cx, cy, z0 + 0.5 * len);
+  g.radius2 = big * big + 0.25 * len * len + 1e-4;
+  g.discs.push_back({cx, cy, z0, hole * hole, big * big, Material::kFlange, owner, true});
+  g.discs.push_back({cx, cy, z0 + len - th, wind * wind, big * big, Material::kFlange, owner, false});
+  g.tubes.push_back({cx, cy, z0, z0 + th, big, false, Material::kFlange});
+  g.tubes.push_back({cx, cy, z0 + th, z0 + len - th, wind, false, Material::kCopper});
+  g.tubes.push_back({cx, cy, z0 + len - th, z0 + len, big, false, Material::kFlange});
+  g.tubes.push_back({cx, cy, z0, z0 + len, hole, true, Material::kBore});
+  addGroup(std::move(g), geometry);
+}
+
+void addObject(const SceneParams& p, SceneGeometry& geometry)
+{
+  const double r = p.object_radius;
+  const double cx = p.object_offset_x;
+  const double cy = geometry.lower_board_top + r;  // it stands on the board
+  const double z0 = p.object_depth;
+  geometry.object_cx = cx;
+  geometry.object_cy = cy;
+  Group g;
+  switch (p.kind)
+  {
+    case SceneKind::kPlate:
+    {
+      const double th = 0.015;
+      g.discs.push_back({cx, cy, z0, 0.0, std::pow(0.75 * r, 2), Material::kObject, -1, false});
+      g.discs.push_back({cx, cy, z0, std::pow(0.75 * r, 2), r * r, Material::kObjectRim, -1, false});
+      g.tubes.push_back({cx, cy, z0, z0 + th, r, false, Material::kObjectRim});
+      g.centre = Vec3(cx, cy, z0);
+      g.radius2 = r * r + th * th + 1e-4;
+      break;
+    }
+    case SceneKind::kTapeRoll:
+    {
+      const double width = 0.03;
+      const double inner = 0.038;  // 76 mm cardboard core
+      const double core = inner + 0.004;
+      g.discs.push_back({cx, cy, z0, core * core, r * r, Material::kObject, -1, false});
+      g.discs.push_back({cx, cy, z0, inner * inner, core * core, Material::kCardboard, -1, false});
+      g.tubes.push_back({cx, cy, z0, z0 + width, r, false, Material::kObject});
+      g.tubes.push_back({cx, cy, z0, z0 + width, inner, true, Material::kCardboard});
+      g.centre = Vec3(cx, cy, z0 + 0.5 * width);
+      g.radius2 = r * r + width * width + 1e-4;
+      break;
+    }
+    case SceneKind::kCan:
+    {
+      const double len = 0.11;
+      g.discs.push_back({cx, cy, z0, 0.0, r * r, Material::kMetal, -1, false});
+      g.tubes.push_back({cx, cy, z0, z0 + len, r, false, Material::kObject});
+      g.centre = Vec3(cx, cy, z0 + 0.5 * len);
+      g.radius2 = r * r + 0.25 * len * len + 1e-4;
+      break;
+    }
+    case SceneKind::kSpool:
+    case SceneKind::kEmptySlot:
+      return;
+  }
+  addGroup(std::move(g), geometry);
+}
+
+// The scene of `p` as primitives: boards, clutter boxes, wall marks, the slot's spool or object, then
+// the neighbours, in that order (the ids, and so where anti-aliasing sees an edge, follow it).
+SceneGeometry sceneGeometry(const SceneParams& p)
+{
+  SceneGeometry geometry;
+  const double big = 0.5 * p.flange_diameter;
+  geometry.wall_z = p.bore_length + p.wall_gap;
+  geometry.lower_board_top = SpoolRenderer::kHoleHeight - big;
+  geometry.lower_board_bottom = geometry.lower_board_top - p.board_thickness;
+  geometry.upper_board_bottom = SpoolRenderer::kHoleHeight + big + p.top_board_clearance;
+  const double upper_board_top = geometry.upper_board_bottom + p.board_thickness;
+  geometry.boxes = {
+      {{Vec3(-20.0, geometry.lower_board_bottom, p.board_front), Vec3(20.0, geometry.lower_board_top, geometry.wall_z)},
+       Material::kBoard,
+       -1},
+      {{Vec3(-20.0, geometry.upper_board_bottom, p.board_front), Vec3(20.0, upper_board_top, geometry.wall_z)},
+       Material::kBoard,
+       -1}};
+  for (const ShelfBox& b : p.boxes)
+  {
+    const double floor = b.upper ? upper_board_top : geometry.lower_board_top;
+    geometry.boxes.push_back(
+        {{Vec3(b.x - 0.5 * b.width, floor, b.z), Vec3(b.x + 0.5 * b.width, floor + b.height, b.z + b.depth)},
+         Material::kClutter,
+         static_cast<int>(geometry.clutter_colours.size())});
+    geometry.clutter_colours.push_back(toVec(b.colour));
+  }
+  geometry.next_id = 1 + static_cast<int>(geometry.boxes.size());
+  for (const WallMark& m : p.wall_marks)
+  {
+    // Just in front of the wall, so the wall never wins the depth test against it.
+    const double z = geometry.wall_z - 1e-4;
+    Group g;
+    g.centre = Vec3(m.x, m.y, z);
+    g.radius2 = m.radius * m.radius + 1e-4;
+    g.discs.push_back({m.x, m.y, z, m.inner_radius * m.inner_radius, m.radius * m.radius, Material::kClutter,
+                       static_cast<int>(geometry.clutter_colours.size()), false});
+    geometry.clutter_colours.push_back(toVec(m.colour));
+    addGroup(std::move(g), geometry);
+  }
+
+  if (p.kind == SceneKind::kSpool)
+    addSpool(p, 0.0, 0.0, p.label_angle, geometry);
+  else
+    addObject(p, geometry);
+  int count = 0;
+  for (const Vec3& centre : neighbourCentres(p))
+    addSpool(p, centre.x(), centre.z(), p.label_angle + 1.7 * ++count, geometry);
+  return geometry;
+}
+
+// --- ray casting ---------------------------------------------------------------------------
+
+void intersectBox(const Vec3& o, const Vec3& d, const Vec3& inv, const Box& b, int id, Hit& hit)
+{
+  const std::array<Vec3, 2>& box = b.bounds;
+  double t0 = 0.0;
+  double t1 = hit.t;
+  int axis = -1;
+  double sign = 0.0;
+  for (int a = 0; a < 3; ++a)
+  {
+    if (std::abs(d[a]) < kEps)
+    {
+      if (o[a] < box[0][a] || o[a] > box[1][a])
+        return;
+      continue;
+    }
+    double ta = (box[0][a] - o[a]) * inv[a];
+    double tb = (box[1][a] - o[a]) * inv[a];
+    double s = -1.0;  // normal of the entry face
+    if (ta > tb)
+    {
+      std::swap(ta, tb);
+      s = 1.0;
+    }
+    if (ta > t0)
+    {
+      t0 = ta;
+      axis = a;
+      sign = s;
+    }
+    t1 = std::min(t1, tb);
+    if (t0 > t1)
+      return;
+  }
+  if (axis < 0)
+    return;  // the camera is inside the box
+  hit.t = t0;
+  hit.id = id;
+  hit.material = b.material;
+  hit.normal = Vec3::Zero();
+  hit.normal[axis] = sign;
+  hit.owner = b.owner;
+}
+
+void intersectDisc(const Vec3& o, const Vec3& d, double inv_dz, const Disc& disc, int id, Hit& hit)
+{
+  if (d.z() <= kEps)
+    return;
+  const double t = (disc.z - o.z()) * inv_dz;
+  if (t <= kEps || t >= hit.t)
+    return;
+  const double x = o.x() + t * d.x() - disc.cx;
+  const double y = o.y() + t * d.y() - disc.cy;
+  const double r2 = x * x + y * y;
+  if (r2 < disc.r_in2 || r2 > disc.r_out2)
+    return;
+  hit.t = t;
+  hit.id = id;
+  hit.material = disc.material;
+  hit.normal = Vec3(0, 0, -1);
+  hit.owner = disc.owner;
+  hit.textured = disc.textured;
+}
+
+void intersectTube(const Vec3& o, const Vec3& d, double a, double inv_a, const Tube& tube, int id, Hit& hit)
+{
+  if (a < kEps)
+    return;
+  const double ox = o.x() - tube.cx;
+  const double oy = o.y() - tube.cy;
+  const double b = ox * d.x() + oy * d.y();
+  const double c = ox * ox + oy * oy - tube.r * tube.r;
+  const double disc = b * b - a * c;
+  if (disc < 0.0)
+    return;
+  const double root = std::sqrt(disc);
+  const double t = (tube.inward ? -b + root : -b - root) * inv_a;
+  if (t <= kEps || t >= hit.t)
+    return;
+  const double z = o.z() + t * d.z();
+  if (z < tube.z0 || z > tube.z1)
+    return;
+  const double sign = tube.inward ? -1.0 : 1.0;
+  hit.t = t;
+  hit.id = id;
+  hit.material = tube.material;
+  hit.normal = Vec3(sign * (ox + t * d.x()) / tube.r, sign * (oy + t * d.y()) / tube.r, 0.0);
+  hit.owner = -1;
+  hit.z_front = tube.z0;
+  hit.z_back = tube.z1;
+}
+
+// Nearest hit along o + t d (d need not be unit length); o is the camera centre.
+Hit castRay(const SceneGeometry& geometry, const CameraFrame& camera, double rod_length, const Vec3& o, const Vec3& d)
+{
+  // Divisions are the costly part of the tests below: share them across primitives.
+  const Vec3 inv = d.cwiseInverse();
+  const double inv_d2 = 1.0 / d.squaredNorm();
+  const double a_xy = d.x() * d.x() + d.y() * d.y();
+  const double inv_a_xy = a_xy > kEps ? 1.0 / a_xy : 0.0;
+  Hit hit;
+  if (d.z() > kEps)
+  {
+    hit.t = (geometry.wall_z - o.z()) * inv.z();
+    hit.id = 0;
+    hit.material = Material::kWall;
+    hit.normal = Vec3(0, 0, -1);
+  }
+  for (std::size_t i = 0; i < geometry.boxes.size(); ++i)
+    intersectBox(o, d, inv, geometry.boxes[i], static_cast<int>(i) + 1, hit);
+  for (const Group& g : geometry.groups)
+  {
+    const Vec3 w = g.centre - o;
+    const double tc = w.dot(d) * inv_d2;
+    if ((w - tc * d).squaredNorm() > g.radius2)
+      continue;
+    int id = g.first_id;
+    for (const Disc& disc : g.discs)
+      intersectDisc(o, d, inv.z(), disc, id++, hit);
+    for (const Tube& tube : g.tubes)
+      intersectTube(o, d, a_xy, inv_a_xy, tube, id++, hit);
+  }
+  Vec3 rod_normal = Vec3::Zero();
+  const double rod_t = pullerRodHit(camera.rotation.transpose() * d, rod_length, &rod_normal);
+  if (rod_t < hit.t)
+  {
+    hit.t = rod_t;
+    hit.id = geometry.next_id;
+    hit.material = Material::kRod;
+    hit.normal = camera.rotation * rod_normal;
+    hit.owner = -1;
+  }
+  return hit;
+}
+
+// The light a scene sends back along each camera ray: its geometry, the rays cast through it,
+// and the lamps' shading of what they hit.
 class Scene
 {
 public:
-  Scene(const SceneParams& params, const CameraFrame& camera) : p_(params), camera_(camera)
+  Scene(const SceneParams& params, const CameraFrame& camera)
+    : p_(params), camera_(camera), geometry_(sceneGeometry(params))
   {
-    build();
     setupLights();
   }
 
   // Nearest hit along o + t d (d need not be unit length); o is the camera centre.
   Hit trace(const Vec3& o, const Vec3& d) const
   {
-    // Divisions are the costly part of the tests below: share them across primitives.
-    const Vec3 inv = d.cwiseInverse();
-    const double inv_d2 = 1.0 / d.squaredNorm();
-    const double a_xy = d.x() * d.x() + d.y() * d.y();
-    const double inv_a_xy = a_xy > kEps ? 1.0 / a_xy : 0.0;
-    Hit hit;
-    if (d.z() > kEps)
-    {
-      hit.t = (wall_z_ - o.z()) * inv.z();
-      hit.id = 0;
-      hit.material = Material::kWall;
-      hit.normal = Vec3(0, 0, -1);
-    }
-    for (std::size_t i = 0; i < boxes_.size(); ++i)
-      intersectBox(o, d, inv, boxes_[i], static_cast<int>(i) + 1, hit);
-    for (const Group& g : groups_)
-    {
-      const Vec3 w = g.centre - o;
-      const double tc = w.dot(d) * inv_d2;
-      if ((w - tc * d).squaredNorm() > g.radius2)
-        continue;
-      int id = g.first_id;
-      for (const Disc& disc : g.discs)
-        intersectDisc(o, d, inv.z(), disc, id++, hit);
-      for (const Tube& tube : g.tubes)
-        intersectTube(o, d, a_xy, inv_a_xy, tube, id++, hit);
-    }
-    Vec3 rod_normal = Vec3::Zero();
-    const double rod_t = pullerRodHit(camera_.rotation.transpose() * d, p_.puller_rod_length, &rod_normal);
-    if (rod_t < hit.t)
-    {
-      hit.t = rod_t;
-      hit.id = next_id_;
-      hit.material = Material::kRod;
-      hit.normal = camera_.rotation * rod_normal;
-      hit.owner = -1;
-    }
-    return hit;
+    return castRay(geometry_, camera_, p_.puller_rod_length, o, d);
   }
 
   // Linear BGR radiance (1 = full scale) seen along d; `sub` refines the surface id where the
@@ -247,9 +505,9 @@ public:
       {
         const double pattern = 1.0 + 0.05 * std::sin(7.1 * pt.x() + 0.3) * std::sin(5.3 * pt.y());
         double shadow = 1.0;
-        if (pt.y() < lower_board_bottom_)
+        if (pt.y() < geometry_.lower_board_bottom)
           shadow = 0.45;  // inside the compartment below: the board shades it
-        else if (pt.y() > upper_board_bottom_)
+        else if (pt.y() > geometry_.upper_board_bottom)
           shadow = 0.6;
         sub = shadow < 1.0 ? 1 : 0;
         return toVec(p_.wall_colour) * pattern * shadow * diffuse(hit.normal);
@@ -280,7 +538,7 @@ public:
         return Vec3::Constant(p_.bore_reflectance * (0.7 + 0.6 * depth) * light_scale_);
       }
       case Material::kClutter:
-        return clutter_colours_[hit.owner] * diffuse(hit.normal);
+        return geometry_.clutter_colours[hit.owner] * diffuse(hit.normal);
       case Material::kRod:
         // Turned steel: grey, with a highlight running along the rod.
         return Vec3::Constant(0.45) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.5, 4));
@@ -294,7 +552,7 @@ public:
       case Material::kMetal:
       {
         // Lid with a dark recessed groove and a shiny seamed rim.
-        const double r = std::hypot(pt.x() - object_cx_, pt.y() - object_cy_) / p_.object_radius;
+        const double r = std::hypot(pt.x() - geometry_.object_cx, pt.y() - geometry_.object_cy) / p_.object_radius;
         double albedo = 0.55;
         if (r > 0.8 && r < 0.86)
         {
@@ -313,11 +571,6 @@ public:
   }
 
 private:
-  static Vec3 toVec(const cv::Vec3d& v)
-  {
-    return Vec3(v[0], v[1], v[2]);
-  }
-
   void setupLights()
   {
     const std::array<bool, 3>& on = lampSpec(p_.lamps).on;
@@ -389,7 +642,7 @@ private:
   // one flank faces the lamps above (a bright thin circle) and the other faces away (a dark one).
   Vec3 ribFlanks(const Vec3& pt, const Vec3& view, const Hit& hit, double footprint, const Vec3& flat) const
   {
-    const SpoolInfo& s = spools_[hit.owner];
+    const SpoolInfo& s = geometry_.spools[hit.owner];
     const double x = pt.x() - s.cx;
     const double y = pt.y() - s.cy;
     const double r = std::hypot(x, y);
@@ -420,7 +673,7 @@ private:
     const Vec3 black = Vec3::Constant(p_.flange_reflectance);
     if (!hit.textured)
       return black;
-    const SpoolInfo& s = spools_[hit.owner];
+    const SpoolInfo& s = geometry_.spools[hit.owner];
     const double x = pt.x() - s.cx;
     const double y = pt.y() - s.cy;
     if (p_.label)
@@ -454,240 +707,13 @@ private:
     return black;
   }
 
-  void addSpool(double cx, double z0, double label_angle)
-  {
-    const double cy = SpoolRenderer::kHoleHeight;
-    const double big = 0.5 * p_.flange_diameter;
-    const double hole = 0.5 * p_.hole_diameter;
-    const double wind = 0.5 * p_.winding_diameter;
-    const double len = p_.bore_length;
-    const double th = p_.flange_thickness;
-    const int owner = static_cast<int>(spools_.size());
-    spools_.push_back({cx, cy, label_angle});
-
-    Group g;
-    g.centre = Vec3(cx, cy, z0 + 0.5 * len);
-    g.radius2 = big * big + 0.25 * len * len + 1e-4;
-    g.discs.push_back({cx, cy, z0, hole * hole, big * big, Material::kFlange, owner, true});
-    g.discs.push_back({cx, cy, z0 + len - th, wind * wind, big * big, Material::kFlange, owner, false});
-    g.tubes.push_back({cx, cy, z0, z0 + th, big, false, Material::kFlange});
-    g.tubes.push_back({cx, cy, z0 + th, z0 + len - th, wind, false, Material::kCopper});
-    g.tubes.push_back({cx, cy, z0 + len - th, z0 + len, big, false, Material::kFlange});
-    g.tubes.push_back({cx, cy, z0, z0 + len, hole, true, Material::kBore});
-    addGroup(std::move(g));
-  }
-
-  void addObject()
-  {
-    const double r = p_.object_radius;
-    const double cx = p_.object_offset_x;
-    const double cy = lower_board_top_ + r;  // it stands on the board
-    const double z0 = p_.object_depth;
-    object_cx_ = cx;
-    object_cy_ = cy;
-    Group g;
-    switch (p_.kind)
-    {
-      case SceneKind::kPlate:
-      {
-        const double th = 0.015;
-        g.discs.push_back({cx, cy, z0, 0.0, std::pow(0.75 * r, 2), Material::kObject, -1, false});
-        g.discs.push_back({cx, cy, z0, std::pow(0.75 * r, 2), r * r, Material::kObjectRim, -1, false});
-        g.tubes.push_back({cx, cy, z0, z0 + th, r, false, Material::kObjectRim});
-        g.centre = Vec3(cx, cy, z0);
-        g.radius2 = r * r + th * th + 1e-4;
-        break;
-      }
-      case SceneKind::kTapeRoll:
-      {
-        const double width = 0.03;
-        const double inner = 0.038;  // 76 mm cardboard core
-        const double core = inner + 0.004;
-        g.discs.push_back({cx, cy, z0, core * core, r * r, Material::kObject, -1, false});
-        g.discs.push_back({cx, cy, z0, inner * inner, core * core, Material::kCardboard, -1, false});
-        g.tubes.push_back({cx, cy, z0, z0 + width, r, false, Material::kObject});
-        g.tubes.push_back({cx, cy, z0, z0 + width, inner, true, Material::kCardboard});
-        g.centre = Vec3(cx, cy, z0 + 0.5 * width);
-        g.radius2 = r * r + width * width + 1e-4;
-        break;
-      }
-      case SceneKind::kCan:
-      {
-        const double len = 0.11;
-        g.discs.push_back({cx, cy, z0, 0.0, r * r, Material::kMetal, -1, false});
-        g.tubes.push_back({cx, cy, z0, z0 + len, r, false, Material::kObject});
-        g.centre = Vec3(cx, cy, z0 + 0.5 * len);
-        g.radius2 = r * r + 0.25 * len * len + 1e-4;
-        break;
-      }
-      case SceneKind::kSpool:
-      case SceneKind::kEmptySlot:
-        return;
-    }
-    addGroup(std::move(g));
-  }
-
-  void addGroup(Group g)
-  {
-    g.first_id = next_id_;
-    next_id_ += static_cast<int>(g.discs.size() + g.tubes.size());
-    groups_.push_back(std::move(g));
-  }
-
-  void build()
-  {
-    const double big = 0.5 * p_.flange_diameter;
-    wall_z_ = p_.bore_length + p_.wall_gap;
-    lower_board_top_ = SpoolRenderer::kHoleHeight - big;
-    lower_board_bottom_ = lower_board_top_ - p_.board_thickness;
-    upper_board_bottom_ = SpoolRenderer::kHoleHeight + big + p_.top_board_clearance;
-    const double upper_board_top = upper_board_bottom_ + p_.board_thickness;
-    boxes_ = {{{Vec3(-20.0, lower_board_bottom_, p_.board_front), Vec3(20.0, lower_board_top_, wall_z_)},
-               Material::kBoard,
-               -1},
-              {{Vec3(-20.0, upper_board_bottom_, p_.board_front), Vec3(20.0, upper_board_top, wall_z_)},
-               Material::kBoard,
-               -1}};
-    for (const ShelfBox& b : p_.boxes)
-    {
-      const double floor = b.upper ? upper_board_top : lower_board_top_;
-      boxes_.push_back(
-          {{Vec3(b.x - 0.5 * b.width, floor, b.z), Vec3(b.x + 0.5 * b.width, floor + b.height, b.z + b.depth)},
-           Material::kClutter,
-           static_cast<int>(clutter_colours_.size())});
-      clutter_colours_.push_back(toVec(b.colour));
-    }
-    next_id_ = 1 + static_cast<int>(boxes_.size());
-    for (const WallMark& m : p_.wall_marks)
-    {
-      // Just in front of the wall, so the wall never wins the depth test against it.
-      const double z = wall_z_ - 1e-4;
-      Group g;
-      g.centre = Vec3(m.x, m.y, z);
-      g.radius2 = m.radius * m.radius + 1e-4;
-      g.discs.push_back({m.x, m.y, z, m.inner_radius * m.inner_radius, m.radius * m.radius, Material::kClutter,
-                         static_cast<int>(clutter_colours_.size()), false});
-      clutter_colours_.push_back(toVec(m.colour));
-      addGroup(std::move(g));
-    }
-
-    if (p_.kind == SceneKind::kSpool)
-      addSpool(0.0, 0.0, p_.label_angle);
-    else
-      addObject();
-    int count = 0;
-    for (const Vec3& centre : neighbourCentres(p_))
-      addSpool(centre.x(), centre.z(), p_.label_angle + 1.7 * ++count);
-  }
-
-  static void intersectBox(const Vec3& o, const Vec3& d, const Vec3& inv, const Box& b, int id, Hit& hit)
-  {
-    const std::array<Vec3, 2>& box = b.bounds;
-    double t0 = 0.0;
-    double t1 = hit.t;
-    int axis = -1;
-    double sign = 0.0;
-    for (int a = 0; a < 3; ++a)
-    {
-      if (std::abs(d[a]) < kEps)
-      {
-        if (o[a] < box[0][a] || o[a] > box[1][a])
-          return;
-        continue;
-      }
-      double ta = (box[0][a] - o[a]) * inv[a];
-      double tb = (box[1][a] - o[a]) * inv[a];
-      double s = -1.0;  // normal of the entry face
-      if (ta > tb)
-      {
-        std::swap(ta, tb);
-        s = 1.0;
-      }
-      if (ta > t0)
-      {
-        t0 = ta;
-        axis = a;
-        sign = s;
-      }
-      t1 = std::min(t1, tb);
-      if (t0 > t1)
-        return;
-    }
-    if (axis < 0)
-      return;  // the camera is inside the box
-    hit.t = t0;
-    hit.id = id;
-    hit.material = b.material;
-    hit.normal = Vec3::Zero();
-    hit.normal[axis] = sign;
-    hit.owner = b.owner;
-  }
-
-  static void intersectDisc(const Vec3& o, const Vec3& d, double inv_dz, const Disc& disc, int id, Hit& hit)
-  {
-    if (d.z() <= kEps)
-      return;
-    const double t = (disc.z - o.z()) * inv_dz;
-    if (t <= kEps || t >= hit.t)
-      return;
-    const double x = o.x() + t * d.x() - disc.cx;
-    const double y = o.y() + t * d.y() - disc.cy;
-    const double r2 = x * x + y * y;
-    if (r2 < disc.r_in2 || r2 > disc.r_out2)
-      return;
-    hit.t = t;
-    hit.id = id;
-    hit.material = disc.material;
-    hit.normal = Vec3(0, 0, -1);
-    hit.owner = disc.owner;
-    hit.textured = disc.textured;
-  }
-
-  static void intersectTube(const Vec3& o, const Vec3& d, double a, double inv_a, const Tube& tube, int id, Hit& hit)
-  {
-    if (a < kEps)
-      return;
-    const double ox = o.x() - tube.cx;
-    const double oy = o.y() - tube.cy;
-    const double b = ox * d.x() + oy * d.y();
-    const double c = ox * ox + oy * oy - tube.r * tube.r;
-    const double disc = b * b - a * c;
-    if (disc < 0.0)
-      return;
-    const double root = std::sqrt(disc);
-    const double t = (tube.inward ? -b + root : -b - root) * inv_a;
-    if (t <= kEps || t >= hit.t)
-      return;
-    const double z = o.z() + t * d.z();
-    if (z < tube.z0 || z > tube.z1)
-      return;
-    const double sign = tube.inward ? -1.0 : 1.0;
-    hit.t = t;
-    hit.id = id;
-    hit.material = tube.material;
-    hit.normal = Vec3(sign * (ox + t * d.x()) / tube.r, sign * (oy + t * d.y()) / tube.r, 0.0);
-    hit.owner = -1;
-    hit.z_front = tube.z0;
-    hit.z_back = tube.z1;
-  }
-
   const SceneParams& p_;
   CameraFrame camera_;
+  SceneGeometry geometry_;
   std::array<double, 3> lamp_weight_{};
   double light_scale_ = 1.0;
   double front_light_ = 0.0;  // bore: light entering the front opening
   double back_light_ = 0.0;   // bore: light entering the back opening from the lit wall
-  double wall_z_ = 0.3;
-  double lower_board_top_ = 0.0;
-  double lower_board_bottom_ = 0.0;
-  double upper_board_bottom_ = 0.0;
-  double object_cx_ = 0.0;
-  double object_cy_ = 0.0;
-  std::vector<Box> boxes_;  // the two shelf boards, then clutter boxes
-  std::vector<Vec3> clutter_colours_;
-  std::vector<Group> groups_;
-  std::vector<SpoolInfo> spools_;
-  int next_id_ = 0;
 };
 
 CameraFrame cameraFrame(const CameraPose& pose)
@@ -1144,47 +1170,31 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   return gt;
 }
 
-RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& pose) const
+namespace
 {
-  RenderedFrame frame;
-  frame.truth = groundTruth(scene, pose);
-  const CameraFrame cam = cameraFrame(pose);
-  const Scene world(scene, cam);
-  const int w = camera_.width;
-  const int h = camera_.height;
-
-  auto sample = [&](const cv::Point2d& ray, int& key)
+// Linear BGR radiance along `ray` (normalised image coordinates, z = 1), and `key`: the surface
+// it hits, id * 4 + its texture's sub-id, or -1 for none.
+Vec3 sampleRay(const Scene& world, const CameraFrame& cam, double fx, const cv::Point2d& ray, int& key)
+{
+  const Vec3 d = cam.rotation * Vec3(ray.x, ray.y, 1.0);
+  const Hit hit = world.trace(cam.centre, d);
+  if (hit.id < 0)
   {
-    const Vec3 d = cam.rotation * Vec3(ray.x, ray.y, 1.0);
-    const Hit hit = world.trace(cam.centre, d);
-    if (hit.id < 0)
-    {
-      key = -1;
-      return Vec3(Vec3::Zero());
-    }
-    int sub = 0;
-    const double footprint = hit.t * d.norm() / camera_.fx;
-    const Vec3 colour = world.shade(cam.centre, d, hit, footprint, sub);
-    key = hit.id * 4 + sub;
-    return colour;
-  };
+    key = -1;
+    return Vec3(Vec3::Zero());
+  }
+  int sub = 0;
+  const double footprint = hit.t * d.norm() / fx;
+  const Vec3 colour = world.shade(cam.centre, d, hit, footprint, sub);
+  key = hit.id * 4 + sub;
+  return colour;
+}
 
-  std::vector<cv::Point2d> pixels;
-  pixels.reserve(static_cast<std::size_t>(w) * h);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u)
-      pixels.emplace_back(u, v);
-  const std::vector<cv::Point2d> rays = pixelRays(camera_, pixels);
-  cv::Mat radiance(h, w, CV_32FC3);
-  cv::Mat keys(h, w, CV_32S);
-  for (int v = 0; v < h; ++v)
-    for (int u = 0; u < w; ++u)
-    {
-      const Vec3 c = sample(rays[static_cast<std::size_t>(v) * w + u], keys.at<int>(v, u));
-      radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(c.x(), c.y(), c.z());
-    }
-
-  // Anti-aliasing where the visible surface (or a texture edge) changes between pixels.
+// 1 where a pixel's surface key differs from a 4-neighbour's (both pixels of the pair).
+cv::Mat surfaceEdges(const cv::Mat& keys)
+{
+  const int w = keys.cols;
+  const int h = keys.rows;
   cv::Mat edge = cv::Mat::zeros(h, w, CV_8U);
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
@@ -1195,6 +1205,31 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
       if (v + 1 < h && keys.at<int>(v + 1, u) != k)
         edge.at<uchar>(v, u) = edge.at<uchar>(v + 1, u) = 1;
     }
+  return edge;
+}
+
+// The scene's linear radiance at each pixel of `camera` (CV_32FC3): one ray per pixel, then
+// kSuperSamples^2 rays averaged where the visible surface (or a texture edge) changes.
+cv::Mat radianceImage(const Scene& world, const CameraFrame& cam, const CameraIntrinsics& camera)
+{
+  const int w = camera.width;
+  const int h = camera.height;
+  std::vector<cv::Point2d> pixels;
+  pixels.reserve(static_cast<std::size_t>(w) * h);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+      pixels.emplace_back(u, v);
+  const std::vector<cv::Point2d> rays = pixelRays(camera, pixels);
+  cv::Mat radiance(h, w, CV_32FC3);
+  cv::Mat keys(h, w, CV_32S);
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u)
+    {
+      const Vec3 c = sampleRay(world, cam, camera.fx, rays[static_cast<std::size_t>(v) * w + u], keys.at<int>(v, u));
+      radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(c.x(), c.y(), c.z());
+    }
+
+  const cv::Mat edge = surfaceEdges(keys);
   pixels.clear();
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
@@ -1202,7 +1237,7 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
         for (int i = 0; i < kSuperSamples; ++i)
           for (int j = 0; j < kSuperSamples; ++j)
             pixels.emplace_back(u + (j + 0.5) / kSuperSamples - 0.5, v + (i + 0.5) / kSuperSamples - 0.5);
-  const std::vector<cv::Point2d> sub_rays = pixelRays(camera_, pixels);
+  const std::vector<cv::Point2d> sub_rays = pixelRays(camera, pixels);
   std::size_t next = 0;
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
@@ -1212,19 +1247,26 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
       Vec3 sum = Vec3::Zero();
       int unused = 0;
       for (int k = 0; k < kSuperSamples * kSuperSamples; ++k)
-        sum += sample(sub_rays[next++], unused);
+        sum += sampleRay(world, cam, camera.fx, sub_rays[next++], unused);
       sum /= kSuperSamples * kSuperSamples;
       radiance.at<cv::Vec3f>(v, u) = cv::Vec3f(sum.x(), sum.y(), sum.z());
     }
+  return radiance;
+}
 
-  // Camera: lens blur (optical, defocus, motion), vignetting, auto exposure, white balance,
-  // then shot and read noise (both grow with the gain), gamma, quantisation and JPEG.
+// What the webcam makes of the radiance: lens blur (optical, defocus, motion), vignetting, auto
+// exposure, white balance, then shot and read noise (both grow with the gain), gamma,
+// quantisation and JPEG. `radiance` is blurred in place.
+cv::Mat webcamImage(cv::Mat& radiance, const SceneParams& scene, const CameraIntrinsics& camera)
+{
+  const int w = camera.width;
+  const int h = camera.height;
   if (scene.blur_sigma > 0.05)
     cv::GaussianBlur(radiance, radiance, cv::Size(), scene.blur_sigma);
   const double per_480_rows = h / 480.0;
   defocus(radiance, scene.defocus_radius * per_480_rows);
-  motionBlur(radiance, scene, camera_, scene.motion_blur * per_480_rows);
-  const double auto_gain = scene.auto_exposure_target > 0.0 ? autoExposureGain(radiance, scene, camera_) : 1.0;
+  motionBlur(radiance, scene, camera, scene.motion_blur * per_480_rows);
+  const double auto_gain = scene.auto_exposure_target > 0.0 ? autoExposureGain(radiance, scene, camera) : 1.0;
   cv::Mat noise(h, w, CV_32FC3);
   cv::RNG rng(mixSeed(scene.seed, 1));
   rng.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
@@ -1232,7 +1274,7 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
   for (int v = 0; v < h; ++v)
     for (int u = 0; u < w; ++u)
     {
-      const double gain = 255.0 * scene.exposure * auto_gain * vignette(scene, camera_, u, v);
+      const double gain = 255.0 * scene.exposure * auto_gain * vignette(scene, camera, u, v);
       const cv::Vec3f& rad = radiance.at<cv::Vec3f>(v, u);
       const cv::Vec3f& n = noise.at<cv::Vec3f>(v, u);
       cv::Vec3b& out = image.at<cv::Vec3b>(v, u);
@@ -1251,7 +1293,18 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
     cv::imencode(".jpg", image, buffer, {cv::IMWRITE_JPEG_QUALITY, scene.jpeg_quality});
     image = cv::imdecode(buffer, cv::IMREAD_COLOR);
   }
-  frame.image = image;
+  return image;
+}
+}  // namespace
+
+RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& pose) const
+{
+  RenderedFrame frame;
+  frame.truth = groundTruth(scene, pose);
+  const CameraFrame cam = cameraFrame(pose);
+  const Scene world(scene, cam);
+  cv::Mat radiance = radianceImage(world, cam, camera_);
+  frame.image = webcamImage(radiance, scene, camera_);
   return frame;
 }
 
