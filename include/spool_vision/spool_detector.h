@@ -88,6 +88,11 @@ private:
   /// not tried.
   double selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search, const HoughSearch& hole_search,
                       SpoolEvidence evidence, double bound, SpoolDetection& result);
+  /// mcht: of the flanges in order_, the spool with a concentric hole rim that costs least and
+  /// under `best_cost` (which it lowers to that cost); its hole search's circles are left in
+  /// target_holes_.
+  std::optional<SpoolMatch> nearestSpool(const cv::Point2d& reference, const HoughSearch& flange_search,
+                                         const HoughSearch& hole_search, double& best_cost);
   /// flange_retry: the flange search again with either polarity (after flange_hough_.detect() of
   /// `flange_search`), less the ghosts enclosing a solid rim, each spool needing a hole rim of
   /// kRetryHoleScore. Replaces `result` and returns true when its target costs less than `cost`

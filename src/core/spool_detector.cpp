@@ -217,42 +217,77 @@ void SpoolDetector::extractHoleEdges(const cv::Rect2d& centres, double reach, co
   edge_detector_.extract(params_.hough.hole_edge_threshold, window, edgeBudget(window.size()), hole_edges_, linear);
 }
 
+namespace
+{
+// Reports `flange` (and `hole`) as the detection. Both rims: confidence 0.5 and up with the
+// weaker's support; the flange alone: at most 0.5.
+void takeSpool(const Circle& flange, const std::optional<Circle>& hole, SpoolDetection& result)
+{
+  result.detected = true;
+  result.flange = flange;
+  result.confidence = hole ? 0.5 + 0.5 * std::min(flange.score, hole->score) : 0.5 * flange.score;
+  result.hole_detected = hole.has_value();
+  if (hole)
+    result.hole = *hole;
+}
+}  // namespace
+
 double SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search,
                                    const HoughSearch& hole_search, SpoolEvidence evidence, double bound,
                                    SpoolDetection& result)
 {
-  const HoughParams& hp = params_.hough;
   ConcentricMatcher::orderByReference(flanges_, reference, order_);
   holes_.clear();
-  auto take = [&result](const Circle& flange, const std::optional<Circle>& hole)
-  {
-    result.detected = true;
-    result.flange = flange;
-    // Both rims: 0.5 and up with the weaker's support; the flange alone: at most 0.5.
-    result.confidence = hole ? 0.5 + 0.5 * std::min(flange.score, hole->score) : 0.5 * flange.score;
-    result.hole_detected = hole.has_value();
-    if (hole)
-      result.hole = *hole;
-  };
   if (params_.matcher.mode == MatchMode::kCht)
   {
     // The thesis baseline: the flange nearest the reference, the strongest hole anywhere.
     if (order_.empty())
       return kNoMatch;
-    edge_detector_.extract(hp.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()),
+    edge_detector_.extract(params_.hough.hole_edge_threshold, cv::Rect(cv::Point(), preprocessed_.size()),
                            edgeBudget(preprocessed_.size()), hole_edges_);
     detectHoles(hole_search);
     const Circle& target = flanges_[order_.front()];
-    take(target, matcher_.matchHole(target, holes_));
+    takeSpool(target, matcher_.matchHole(target, holes_), result);
     return kNoMatch;
   }
+  double best_cost = bound;
+  if (const std::optional<SpoolMatch> best = nearestSpool(reference, flange_search, hole_search, best_cost))
+  {
+    std::swap(holes_, target_holes_);
+    takeSpool(best->flange, best->hole, result);
+    measureBoreAtKnownSize(result);
+    // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
+    if (params_.hough.hole_polarity != Polarity::kBright)
+      findLens(result);
+    return best_cost;
+  }
+  holes_.clear();
+  if (order_.empty())
+    return kNoMatch;
+  switch (evidence)
+  {
+    case SpoolEvidence::kHole:
+      break;
+    case SpoolEvidence::kBore:
+      if (const auto i = strongFlangeWithBore(hole_search))
+        takeSpool(flanges_[*i], std::nullopt, result);
+      break;
+    case SpoolEvidence::kFlange:
+      takeSpool(flanges_[order_.front()], std::nullopt, result);
+      break;
+  }
+  return kNoMatch;
+}
+
+std::optional<SpoolMatch> SpoolDetector::nearestSpool(const cv::Point2d& reference, const HoughSearch& flange_search,
+                                                      const HoughSearch& hole_search, double& best_cost)
+{
   // MCHT: a flange is a spool only with a concentric hole of the right size, so false circles
   // (arcs of neighbours, shelf edges, round objects without a bore) do not become the target.
   // The target is the spool whose hole (its axis) is nearest the reference in bearing, weighted
   // by the rim score (ConcentricMatcher::targetCost()); candidates are tried in that order, and
   // one that cannot beat the best so far even with a solid rim is skipped.
   std::optional<SpoolMatch> best;
-  double best_cost = bound;
   for (const std::size_t i : order_)
   {
     HoughSearch search = hole_search;
@@ -274,32 +309,7 @@ double SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSear
       std::swap(holes_, target_holes_);
     }
   }
-  if (best)
-  {
-    std::swap(holes_, target_holes_);
-    take(best->flange, best->hole);
-    measureBoreAtKnownSize(result);
-    // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
-    if (params_.hough.hole_polarity != Polarity::kBright)
-      findLens(result);
-    return best_cost;
-  }
-  holes_.clear();
-  if (order_.empty())
-    return kNoMatch;
-  switch (evidence)
-  {
-    case SpoolEvidence::kHole:
-      break;
-    case SpoolEvidence::kBore:
-      if (const auto i = strongFlangeWithBore(hole_search))
-        take(flanges_[*i], std::nullopt);
-      break;
-    case SpoolEvidence::kFlange:
-      take(flanges_[order_.front()], std::nullopt);
-      break;
-  }
-  return kNoMatch;
+  return best;
 }
 
 void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
