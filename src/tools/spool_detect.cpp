@@ -91,12 +91,11 @@ Options parseOptions(int argc, char** argv)
           line.positional()};
 }
 
-int run(int argc, char** argv)
+// The detector of --config, --mode and --camera-info (`params`, `camera`: what they set); a
+// file or value they name that cannot be used is a usage error. Makes the --overlay folder.
+void setUp(const Options& options, spool_vision::DetectorParams& params,
+           std::optional<spool_vision::CameraIntrinsics>& camera, std::optional<spool_vision::SpoolDetector>& detector)
 {
-  const Options options = parseOptions(argc, argv);
-  spool_vision::DetectorParams params;
-  std::optional<spool_vision::CameraIntrinsics> camera;
-  std::optional<spool_vision::SpoolDetector> detector;
   try
   {
     if (!options.config.empty())
@@ -122,6 +121,42 @@ int run(int argc, char** argv)
           "--overlay: cannot create the folder " + options.overlay + (ec ? " (" + ec.message() + ")" : ""),
           /*show_usage=*/false);
   }
+}
+
+// One detection's fields, after "image".
+void addDetection(const spool_vision::ImageFile& file, const spool_vision::SpoolDetection& d, JsonObject& out)
+{
+  out.add("width", file.image.cols)
+      .add("height", file.image.rows)
+      .add("detected", d.detected)
+      .add("hole_detected", d.hole_detected)
+      .add("distance", d.distance)
+      .add("range", d.range)
+      .add("yaw", d.yaw, 5)
+      .add("overlapped", d.overlapped)
+      .add("aligned", d.aligned)
+      .add("lateral_offset", d.lateral_offset, 5)
+      .addRaw("position",
+              d.detected
+                  ? JsonObject().add("x", d.position.x, 5).add("y", d.position.y, 5).add("z", d.position.z, 5).str()
+                  : "null")
+      .add("axis_angle", d.axis_angle, 5)
+      .add("axis_yaw", d.axis_yaw, 5)
+      .addRaw("flange", circleJson(d.detected, d.flange))
+      .addRaw("hole", circleJson(d.hole_detected, d.hole))
+      .addRaw("lens", circleJson(d.lens_detected, d.lens))
+      .add("confidence", d.confidence, 3)
+      .addRaw("reference", JsonObject().add("x", d.reference.x, 2).add("y", d.reference.y, 2).str())
+      .add("time_ms", d.time_ms, 3);
+}
+
+int run(int argc, char** argv)
+{
+  const Options options = parseOptions(argc, argv);
+  spool_vision::DetectorParams params;
+  std::optional<spool_vision::CameraIntrinsics> camera;
+  std::optional<spool_vision::SpoolDetector> detector;
+  setUp(options, params, camera, detector);
 
   bool any_failed = false;
   bool fallback_said = false;
@@ -140,28 +175,7 @@ int run(int argc, char** argv)
                   << " px at 120 rows, scaled)\n";
         fallback_said = true;
       }
-      out.add("width", file.image.cols)
-          .add("height", file.image.rows)
-          .add("detected", d.detected)
-          .add("hole_detected", d.hole_detected)
-          .add("distance", d.distance)
-          .add("range", d.range)
-          .add("yaw", d.yaw, 5)
-          .add("overlapped", d.overlapped)
-          .add("aligned", d.aligned)
-          .add("lateral_offset", d.lateral_offset, 5)
-          .addRaw("position",
-                  d.detected
-                      ? JsonObject().add("x", d.position.x, 5).add("y", d.position.y, 5).add("z", d.position.z, 5).str()
-                      : "null")
-          .add("axis_angle", d.axis_angle, 5)
-          .add("axis_yaw", d.axis_yaw, 5)
-          .addRaw("flange", circleJson(d.detected, d.flange))
-          .addRaw("hole", circleJson(d.hole_detected, d.hole))
-          .addRaw("lens", circleJson(d.lens_detected, d.lens))
-          .add("confidence", d.confidence, 3)
-          .addRaw("reference", JsonObject().add("x", d.reference.x, 2).add("y", d.reference.y, 2).str())
-          .add("time_ms", d.time_ms, 3);
+      addDetection(file, d, out);
       if (!options.overlay.empty())
       {
         // Same name as the image, as png: lossless, so the thin lines and text stay sharp.
