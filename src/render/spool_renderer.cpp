@@ -1374,12 +1374,17 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed)
   return s;
 }
 
-SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
+namespace
 {
-  SceneParams s = randomScene(kind, seed);
-  cv::RNG rng(mixSeed(seed, 3));
-  auto chance = [&rng](double p) { return rng.uniform(0.0, 1.0) < p; };
+// True with probability p.
+bool chance(cv::RNG& rng, double p)
+{
+  return rng.uniform(0.0, 1.0) < p;
+}
 
+// The hard set's webcam: exposure, gain noise, white balance, blur, MJPEG, and the wall it meters.
+void drawWebcam(cv::RNG& rng, SceneParams& s)
+{
   // Webcam: auto exposure lifts whatever fills the centre to mid grey, with the gain's noise.
   s.auto_exposure_target = rng.uniform(0.35, 0.55);
   s.auto_exposure_max_gain = rng.uniform(6.0, 16.0);
@@ -1388,25 +1393,29 @@ SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
   s.noise_sigma = rng.uniform(1.5, 4.0);
   s.vignetting = rng.uniform(0.1, 0.4);
   s.blur_sigma = rng.uniform(0.3, 1.0);
-  s.defocus_radius = chance(0.4) ? rng.uniform(0.5, 2.5) : 0.0;
-  if (chance(0.4))
+  s.defocus_radius = chance(rng, 0.4) ? rng.uniform(0.5, 2.5) : 0.0;
+  if (chance(rng, 0.4))
   {
     s.motion_blur = rng.uniform(1.0, 6.0);
-    s.motion_blur_radial = chance(0.6);
-    s.motion_blur_angle = chance(0.5) ? 0.0 : 0.5 * M_PI;
+    s.motion_blur_radial = chance(rng, 0.6);
+    s.motion_blur_angle = chance(rng, 0.5) ? 0.0 : 0.5 * M_PI;
   }
-  s.jpeg_quality = chance(0.85) ? rng.uniform(50, 91) : 0;
+  s.jpeg_quality = chance(rng, 0.85) ? rng.uniform(50, 91) : 0;
 
   // A dark wall (or one the centre-weighted metering ignores) makes black faces mid grey.
-  if (chance(0.4))
+  if (chance(rng, 0.4))
     s.wall_colour *= rng.uniform(0.15, 0.45);
+}
 
+// The hard set's flange faces: matte to glossy, ribs, labels, and the bore's shading.
+void drawFaces(cv::RNG& rng, SceneParams& s)
+{
   // Faces from matte to glossy, ribbed, labelled.
   s.flange_reflectance = rng.uniform(0.04, 0.1);
-  s.ribs = chance(0.7);
+  s.ribs = chance(rng, 0.7);
   s.rib_slope = rng.uniform(0.3, 0.9);
-  s.label = chance(0.5);
-  if (chance(0.6))
+  s.label = chance(rng, 0.5);
+  if (chance(rng, 0.6))
   {
     s.gloss = rng.uniform(0.1, 0.6);
     s.gloss_lamp =
@@ -1415,7 +1424,11 @@ SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
     s.gloss_spread = rng.uniform(0.04, 0.15);
   }
   s.bore_falloff = rng.uniform(0.005, 0.015);
+}
 
+// The hard set's clutter: wall marks and boxes.
+void drawClutter(cv::RNG& rng, SceneParams& s)
+{
   // Clutter: discs and rings on the wall (not behind the bore, whose see-through shows the wall)
   // and boxes on the boards beside the slot.
   auto colour = [&rng]
@@ -1428,7 +1441,7 @@ SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
   {
     WallMark m;
     m.radius = rng.uniform(0.01, 0.2);
-    m.inner_radius = chance(0.5) ? m.radius * rng.uniform(0.3, 0.9) : 0.0;
+    m.inner_radius = chance(rng, 0.5) ? m.radius * rng.uniform(0.3, 0.9) : 0.0;
     do
     {
       m.x = rng.uniform(-0.8, 0.8);
@@ -1441,21 +1454,32 @@ SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
   for (int i = 0; i < boxes; ++i)
   {
     ShelfBox b;
-    b.upper = chance(0.5);
+    b.upper = chance(rng, 0.5);
     b.width = rng.uniform(0.05, 0.3);
     b.height = rng.uniform(0.04, b.upper ? 0.3 : 0.2);
     b.depth = rng.uniform(0.05, 0.2);
     b.z = rng.uniform(0.0, std::max(0.0, s.bore_length + s.wall_gap - b.depth));
     // Boxes below stand clear of the target's flange; above the board nothing is in the way.
-    const double side = chance(0.5) ? 1.0 : -1.0;
+    const double side = chance(rng, 0.5) ? 1.0 : -1.0;
     b.x = b.upper ? rng.uniform(-0.7, 0.7) : side * (0.5 * s.flange_diameter + 0.5 * b.width + rng.uniform(0.0, 0.5));
     b.colour = colour();
     s.boxes.push_back(b);
   }
+}
 
+}  // namespace
+
+SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
+{
+  SceneParams s = randomScene(kind, seed);
+  cv::RNG rng(mixSeed(seed, 3));
+  // One stream of draws, in this order: a seed gives the same scene as before the split.
+  drawWebcam(rng, s);
+  drawFaces(rng, s);
+  drawClutter(rng, s);
   // The puller rod reaches 12-30 cm ahead of the camera (the set may shorten it to keep the
   // hole clear).
-  s.puller_rod_length = chance(0.8) ? rng.uniform(0.12, 0.3) : 0.0;
+  s.puller_rod_length = chance(rng, 0.8) ? rng.uniform(0.12, 0.3) : 0.0;
   return s;
 }
 
