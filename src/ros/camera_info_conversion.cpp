@@ -37,33 +37,25 @@ CameraInfoConversion refuse(const std::string& problem)
   return result;
 }
 
-}  // namespace
-
-CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int image_width, int image_height,
-                                    bool rectified)
+// fx, fy, cx, cy and the distortion of the images `info` describes: K with D for a raw stream
+// with distortion, else P (K where P is left zero). False, with `problem` saying why, for a
+// distortion model the detector cannot undo.
+bool intrinsicsOf(const sensor_msgs::CameraInfo& info, const image_geometry::PinholeCameraModel& model, bool rectified,
+                  CameraIntrinsics& camera, std::string& problem)
 {
   namespace models = sensor_msgs::distortion_models;
-  if (!(info.K[0] > 0.0 && info.K[4] > 0.0 && info.width > 0 && info.height > 0))
-  {
-    CameraInfoConversion result;
-    result.problem = "camera_info is uncalibrated (K[0] = " + number(info.K[0]) + ", K[4] = " + number(info.K[4]) +
-                     ", " + sizeText(static_cast<int>(info.width), static_cast<int>(info.height)) + ")";
-    return result;
-  }
-
-  image_geometry::PinholeCameraModel model;
-  model.fromCameraInfo(info);
-  CameraIntrinsics camera;
   const bool raw = !rectified && std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
   if (raw)
   {
     const bool plumb_bob = info.distortion_model == models::PLUMB_BOB && info.D.size() == 5;
     const bool rational = info.distortion_model == models::RATIONAL_POLYNOMIAL && info.D.size() == 8;
     if (!plumb_bob && !rational)
-      return refuse("camera_info's distortion model '" + info.distortion_model + "' with " +
-                    std::to_string(info.D.size()) +
-                    " coefficients is not supported (plumb_bob with 5 or rational_polynomial with 8 are); "
-                    "calibrate with camera_calibration's default model or feed rectified images");
+    {
+      problem = "camera_info's distortion model '" + info.distortion_model + "' with " + std::to_string(info.D.size()) +
+                " coefficients is not supported (plumb_bob with 5 or rational_polynomial with 8 are); "
+                "calibrate with camera_calibration's default model or feed rectified images";
+      return false;
+    }
     const cv::Matx33d& k = model.intrinsicMatrix();
     camera.fx = k(0, 0);
     camera.fy = k(1, 1);
@@ -83,6 +75,28 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
     camera.cx = has_p ? p(0, 2) : k(0, 2);
     camera.cy = has_p ? p(1, 2) : k(1, 2);
   }
+
+  return true;
+}
+}  // namespace
+
+CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int image_width, int image_height,
+                                    bool rectified)
+{
+  if (!(info.K[0] > 0.0 && info.K[4] > 0.0 && info.width > 0 && info.height > 0))
+  {
+    CameraInfoConversion result;
+    result.problem = "camera_info is uncalibrated (K[0] = " + number(info.K[0]) + ", K[4] = " + number(info.K[4]) +
+                     ", " + sizeText(static_cast<int>(info.width), static_cast<int>(info.height)) + ")";
+    return result;
+  }
+
+  image_geometry::PinholeCameraModel model;
+  model.fromCameraInfo(info);
+  CameraIntrinsics camera;
+  std::string problem;
+  if (!intrinsicsOf(info, model, rectified, camera, problem))
+    return refuse(problem);
 
   // The image the camera_info describes: its ROI (or the full size) reduced by the binning.
   const cv::Rect roi = model.rawRoi();
