@@ -166,32 +166,8 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   if (spool_frame_.empty())
     throw ParamError("spool_frame", "must not be empty; allowed: a TF frame name such as spool");
 
-  // The dynamic_reconfigure server starts from the parameter server: give it the values in
-  // force (YAML on top of the defaults) so that it neither resets nor clamps anything.
-  for (const auto& description : SpoolDetectorConfig::__getParamDescriptions__())
-  {
-    const ParamSpec* spec = findParamSpec(description->name);
-    if (!spec)
-      throw std::logic_error("cfg/SpoolDetector.cfg key '" + description->name + "' is not a detector key");
-    setRosParam(pnh_, spec->key, spec->get(detector_.params()));
-  }
-  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<SpoolDetectorConfig>>(pnh_);
-  reconfigure_server_->setCallback([this](SpoolDetectorConfig& config, uint32_t level)
-                                   { reconfigureCallback(config, level); });
-
-  if (!(updater_.getPeriod() > 0.0))
-    throw ParamError("diagnostic_period", "must be a positive number of seconds");
-  updater_.setHardwareID("spool_vision");
-  // A restarted rate window counts from half an update period on.
-  stream_monitor_ = std::make_unique<StreamMonitor>(
-      &min_rate_, &max_rate_, diagnostic_updater::TimeStampStatusParam(kMinFrameAge, kMaxFrameAge),
-      updater_.getPeriod() / 2.0);
-  updater_.add("Frame rate", stream_monitor_.get(), &StreamMonitor::diagnoseRate);
-  updater_.add("Frame age", stream_monitor_.get(), &StreamMonitor::diagnoseAge);
-  updater_.add("Processing", this, &SpoolDetectorRos::diagnoseProcessing);
-  // Wall time: diagnostics keep coming while a replayed clock is paused.
-  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(updater_.getPeriod()),
-                                           [this](const ros::WallTimerEvent&) { updater_.force_update(); });
+  startReconfigureServer();
+  startDiagnostics();
 
   pose_pub_ = nh_.advertise<SpoolPose>("spool_pose", 10);
   pose_stamped_pub_ = pnh_.advertise<geometry_msgs::PoseStamped>("pose", 10);
@@ -213,6 +189,39 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   const std::string tf = publish_tf ? " and TF frame " + spool_frame_ : "";
   ROS_INFO("spool_detector: listening on %s, publishing %s, %s and %s%s", inputs.c_str(), pose_pub_.getTopic().c_str(),
            pose_stamped_pub_.getTopic().c_str(), marker_pub_.getTopic().c_str(), tf.c_str());
+}
+
+void SpoolDetectorRos::startReconfigureServer()
+{
+  // The dynamic_reconfigure server starts from the parameter server: give it the values in
+  // force (YAML on top of the defaults) so that it neither resets nor clamps anything.
+  for (const auto& description : SpoolDetectorConfig::__getParamDescriptions__())
+  {
+    const ParamSpec* spec = findParamSpec(description->name);
+    if (!spec)
+      throw std::logic_error("cfg/SpoolDetector.cfg key '" + description->name + "' is not a detector key");
+    setRosParam(pnh_, spec->key, spec->get(detector_.params()));
+  }
+  reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<SpoolDetectorConfig>>(pnh_);
+  reconfigure_server_->setCallback([this](SpoolDetectorConfig& config, uint32_t level)
+                                   { reconfigureCallback(config, level); });
+}
+
+void SpoolDetectorRos::startDiagnostics()
+{
+  if (!(updater_.getPeriod() > 0.0))
+    throw ParamError("diagnostic_period", "must be a positive number of seconds");
+  updater_.setHardwareID("spool_vision");
+  // A restarted rate window counts from half an update period on.
+  stream_monitor_ = std::make_unique<StreamMonitor>(
+      &min_rate_, &max_rate_, diagnostic_updater::TimeStampStatusParam(kMinFrameAge, kMaxFrameAge),
+      updater_.getPeriod() / 2.0);
+  updater_.add("Frame rate", stream_monitor_.get(), &StreamMonitor::diagnoseRate);
+  updater_.add("Frame age", stream_monitor_.get(), &StreamMonitor::diagnoseAge);
+  updater_.add("Processing", this, &SpoolDetectorRos::diagnoseProcessing);
+  // Wall time: diagnostics keep coming while a replayed clock is paused.
+  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(updater_.getPeriod()),
+                                           [this](const ros::WallTimerEvent&) { updater_.force_update(); });
 }
 
 std::string SpoolDetectorRos::subscribeImages(const std::string& transport, int queue_size)

@@ -42,6 +42,10 @@ public:
   static const std::set<std::string>& rosKeys();
 
 private:
+  /// The dynamic_reconfigure server, seeded with the values in force (YAML on the defaults).
+  void startReconfigureServer();
+  /// The diagnostic updater's tasks (frame rate, frame age, processing), on a wall-time timer.
+  void startDiagnostics();
   /// Subscribes `image` through image_transport (raw and any installed plugin), paired with
   /// camera_info on info_topic_ unless that is empty (use_camera_info false); returns the input
   /// for the start-up line.
