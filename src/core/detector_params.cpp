@@ -69,6 +69,8 @@ ParamSpec choice(const std::string& key, Member member, std::vector<std::string>
     return p.path;     \
   }
 
+// The table itself, one row per key in the order of the YAML files: longer than a function
+// should be, because splitting it would scatter the one list every other copy is checked against.
 std::vector<ParamSpec> buildSpecs()
 {
   const std::vector<std::string> polarity(std::begin(kPolarities), std::end(kPolarities));

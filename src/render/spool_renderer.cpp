@@ -796,6 +796,45 @@ std::vector<cv::Point2d> pixelRays(const CameraIntrinsics& k, const std::vector<
 
 // Projects the circle of `radius` around `centre` in the plane z = centre.z; nullopt when part
 // of it lies behind the camera (its image is then no ellipse).
+// The ellipse of the image conic `q` (p^T q p = 0 for homogeneous pixels p, no lens): its
+// semi-axes, the major axis' angle in (-pi/2, pi/2], r and r_vertical into `pc`; returns its centre.
+cv::Point2d conicEllipse(const Mat3& q, ProjectedCircle& pc)
+{
+  const double A = q(0, 0);
+  const double B = 2.0 * q(0, 1);
+  const double C = q(1, 1);
+  const double D = 2.0 * q(0, 2);
+  const double E = 2.0 * q(1, 2);
+  const double F = q(2, 2);
+
+  Eigen::Matrix2d m;
+  m << 2.0 * A, B, B, 2.0 * C;
+  const Eigen::Vector2d centre_px = m.inverse() * Eigen::Vector2d(-D, -E);
+  const double x0 = centre_px.x();
+  const double y0 = centre_px.y();
+  const double f0 = A * x0 * x0 + B * x0 * y0 + C * y0 * y0 + D * x0 + E * y0 + F;
+  Eigen::Matrix2d quad;
+  quad << A, 0.5 * B, 0.5 * B, C;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(quad);
+  const Eigen::Vector2d lambda = eig.eigenvalues();  // ascending
+  // Larger semi-axis belongs to the eigenvalue of smaller magnitude.
+  const int major = std::abs(lambda(0)) < std::abs(lambda(1)) ? 0 : 1;
+  pc.semi_major = std::sqrt(-f0 / lambda(major));
+  pc.semi_minor = std::sqrt(-f0 / lambda(1 - major));
+  pc.angle = std::atan2(eig.eigenvectors()(1, major), eig.eigenvectors()(0, major));
+  if (pc.angle > M_PI_2)
+    pc.angle -= M_PI;
+  else if (pc.angle <= -M_PI_2)
+    pc.angle += M_PI;
+  pc.r = 0.5 * (pc.semi_major + pc.semi_minor);
+  // Rows where the conic's row-quadratic has a double root bound the vertical extent.
+  const double qa = B * B - 4.0 * A * C;
+  const double qb = 2.0 * B * D - 4.0 * A * E;
+  const double qc = D * D - 4.0 * A * F;
+  pc.r_vertical = 0.5 * std::sqrt(std::max(0.0, qb * qb - 4.0 * qa * qc)) / std::abs(qa);
+  return {x0, y0};
+}
+
 std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const CameraFrame& cam, const Vec3& centre,
                                              double radius)
 {
@@ -831,38 +870,9 @@ std::optional<ProjectedCircle> projectCircle(const CameraIntrinsics& k, const Ca
   const Mat3 h_inv = h.inverse();
   Mat3 q = h_inv.transpose() * Eigen::Vector3d(1.0, 1.0, -radius * radius).asDiagonal() * h_inv;
   q /= q.norm();
-  const double A = q(0, 0);
-  const double B = 2.0 * q(0, 1);
-  const double C = q(1, 1);
-  const double D = 2.0 * q(0, 2);
-  const double E = 2.0 * q(1, 2);
-  const double F = q(2, 2);
-
-  Eigen::Matrix2d m;
-  m << 2.0 * A, B, B, 2.0 * C;
-  const Eigen::Vector2d centre_px = m.inverse() * Eigen::Vector2d(-D, -E);
-  const double x0 = centre_px.x();
-  const double y0 = centre_px.y();
-  const double f0 = A * x0 * x0 + B * x0 * y0 + C * y0 * y0 + D * x0 + E * y0 + F;
-  Eigen::Matrix2d quad;
-  quad << A, 0.5 * B, 0.5 * B, C;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(quad);
-  const Eigen::Vector2d lambda = eig.eigenvalues();  // ascending
-  // Larger semi-axis belongs to the eigenvalue of smaller magnitude.
-  const int major = std::abs(lambda(0)) < std::abs(lambda(1)) ? 0 : 1;
-  pc.semi_major = std::sqrt(-f0 / lambda(major));
-  pc.semi_minor = std::sqrt(-f0 / lambda(1 - major));
-  pc.angle = std::atan2(eig.eigenvectors()(1, major), eig.eigenvectors()(0, major));
-  if (pc.angle > M_PI_2)
-    pc.angle -= M_PI;
-  else if (pc.angle <= -M_PI_2)
-    pc.angle += M_PI;
-  pc.r = 0.5 * (pc.semi_major + pc.semi_minor);
-  // Rows where the conic's row-quadratic has a double root bound the vertical extent.
-  const double qa = B * B - 4.0 * A * C;
-  const double qb = 2.0 * B * D - 4.0 * A * E;
-  const double qc = D * D - 4.0 * A * F;
-  pc.r_vertical = 0.5 * std::sqrt(std::max(0.0, qb * qb - 4.0 * qa * qc)) / std::abs(qa);
+  const cv::Point2d undistorted_centre = conicEllipse(q, pc);
+  const double x0 = undistorted_centre.x;
+  const double y0 = undistorted_centre.y;
   // The ellipse centre where the lens puts it.
   const cv::Point2d ellipse_centre =
       k.distorted() ? imagePoint(k, Vec3((x0 - k.cx) / k.fx, (y0 - k.cy) / k.fy, 1.0)) : cv::Point2d(x0, y0);
