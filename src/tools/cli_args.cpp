@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <iostream>
 
+#include <CLI/CLI.hpp>
+
 namespace spool_vision
 {
 namespace cli
@@ -11,29 +13,51 @@ namespace cli
 CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& keys, const std::string& usage,
                          bool allow_positional, const std::set<std::string>& flags)
 {
-  for (int i = 1; i < argc; ++i)
+  // CLI11 splits the words (also --key=value); what it leaves over is judged here, so that the
+  // messages name the word as before. The usage text is the tool's own.
+  CLI::App app;
+  app.set_help_flag();
+  app.allow_extras();
+  bool help = false;
+  app.add_flag("-h,--help", help);
+  std::map<std::string, std::string> values;
+  std::map<std::string, CLI::Option*> options;
+  for (const std::string& key : keys)
+    options[key] = app.add_option(key, values[key])->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  std::map<std::string, CLI::Option*> given_flags;
+  for (const std::string& flag : flags)
+    given_flags[flag] = app.add_flag(flag);
+  try
   {
-    const std::string word = argv[i];
-    if (word == "--help" || word == "-h")
-    {
-      std::cout << usage;
-      std::exit(0);
-    }
-    if (flags.count(word))
-      flags_.insert(word);
-    else if (keys.count(word))
-    {
-      if (i + 1 >= argc)
-        throw UsageError(word + ": missing value");
-      options_[word] = argv[++i];
-    }
-    else if (word.size() > 1 && word[0] == '-')
-      throw UsageError("unknown option '" + word + "'");
-    else if (allow_positional)
-      positional_.push_back(word);
-    else
-      throw UsageError("unexpected argument '" + word + "'");
+    app.parse(argc, argv);
   }
+  catch (const CLI::ParseError& e)
+  {
+    // The one error CLI11 raises before the leftovers are judged: an option without its value.
+    for (int i = 1; i < argc; ++i)
+      if (keys.count(argv[i]) && i + 1 == argc)
+        throw UsageError(std::string(argv[i]) + ": missing value");
+    throw UsageError(e.what());
+  }
+  if (help)
+  {
+    std::cout << usage;
+    std::exit(0);
+  }
+  for (const std::string& word : app.remaining())
+  {
+    if (word.size() > 1 && word[0] == '-')
+      throw UsageError("unknown option '" + word + "'");
+    if (!allow_positional)
+      throw UsageError("unexpected argument '" + word + "'");
+    positional_.push_back(word);
+  }
+  for (const auto& [key, option] : options)
+    if (option->count() > 0)
+      options_[key] = values[key];
+  for (const auto& [flag, option] : given_flags)
+    if (option->count() > 0)
+      flags_.insert(flag);
 }
 
 std::string CommandLine::text(const std::string& key, const std::string& fallback) const

@@ -1,5 +1,6 @@
-// Command-line handling shared by the tools: `--key value` options, positional arguments, value
-// checks whose messages name the option, and the exit codes (0 ok, 1 failed, 2 bad command line).
+// Command-line handling shared by the tools, the words split by CLI11: `--key value` (or
+// `--key=value`) options, positional arguments, value checks whose messages name the option, and
+// the exit codes (0 ok, 1 failed, 2 bad command line).
 #pragma once
 
 #include <cstdint>
