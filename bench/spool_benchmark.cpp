@@ -24,8 +24,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "spool_vision/eval/evaluation.h"
-#include "spool_vision/spool_detector.h"
 #include "spool_vision/render/spool_renderer.h"
+#include "spool_vision/spool_detector.h"
 
 namespace sv = spool_vision;
 

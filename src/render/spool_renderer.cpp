@@ -19,6 +19,7 @@ namespace
 {
 using Vec3 = Eigen::Vector3d;
 using Mat3 = Eigen::Matrix3d;
+using Json = nlohmann::ordered_json;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = 1e-9;
@@ -1042,52 +1043,34 @@ std::uint64_t mixSeed(std::uint64_t seed, std::uint64_t salt)
   return (z ^ (z >> 31)) | 1ULL;
 }
 
-void writeNumber(std::ostringstream& out, double value)
+// A number, or null where it is undefined (NaN).
+Json number(double value)
 {
-  if (std::isfinite(value))
-    out << value;
-  else
-    out << "null";
+  return std::isfinite(value) ? Json(value) : Json(nullptr);
 }
 
-// Writes `, "key": value`.
-void writeField(std::ostringstream& out, const char* key, double value)
+// {"x": .., "y": .., "z": ..}, or null when undefined.
+Json xyz(double x, double y, double z)
 {
-  out << ", \"" << key << "\": ";
-  writeNumber(out, value);
-}
-
-// Writes `, "key": {"x": .., "y": .., "z": ..}`, or null when undefined.
-void writeXyz(std::ostringstream& out, const char* key, double x, double y, double z)
-{
-  out << ", \"" << key << "\": ";
   if (!std::isfinite(x))
-  {
-    out << "null";
-    return;
-  }
-  out << "{\"x\": " << x << ", \"y\": " << y << ", \"z\": " << z << "}";
+    return nullptr;
+  return {{"x", x}, {"y", y}, {"z", z}};
 }
 
-void writeCircle(std::ostringstream& out, const std::optional<ProjectedCircle>& c)
+Json circleJson(const std::optional<ProjectedCircle>& c)
 {
   if (!c)
-  {
-    out << "null";
-    return;
-  }
-  out << "{\"x\": ";
-  writeNumber(out, c->x);
-  writeField(out, "y", c->y);
-  writeField(out, "r", c->r);
-  writeField(out, "r_vertical", c->r_vertical);
-  writeField(out, "semi_major", c->semi_major);
-  writeField(out, "semi_minor", c->semi_minor);
-  writeField(out, "angle", c->angle);
-  writeField(out, "centre_x", c->centre_x);
-  writeField(out, "centre_y", c->centre_y);
-  writeField(out, "visible_fraction", c->visible_fraction);
-  out << "}";
+    return nullptr;
+  return {{"x", number(c->x)},
+          {"y", number(c->y)},
+          {"r", number(c->r)},
+          {"r_vertical", number(c->r_vertical)},
+          {"semi_major", number(c->semi_major)},
+          {"semi_minor", number(c->semi_minor)},
+          {"angle", number(c->angle)},
+          {"centre_x", number(c->centre_x)},
+          {"centre_y", number(c->centre_y)},
+          {"visible_fraction", number(c->visible_fraction)}};
 }
 
 }  // namespace
@@ -1493,60 +1476,51 @@ SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
   return s;
 }
 
-std::string groundTruthToJson(const GroundTruth& t)
+nlohmann::ordered_json groundTruthJson(const GroundTruth& t)
 {
-  std::ostringstream out;
-  out << std::setprecision(10);
-  out << "{\"kind\": \"" << toString(t.kind) << "\", \"lamps\": \"" << toString(t.lamps) << "\"";
-  writeField(out, "illuminance", t.illuminance);
-  out << ", \"width\": " << t.camera.width << ", \"height\": " << t.camera.height
-      << ", \"camera\": {\"fx\": " << t.camera.fx << ", \"fy\": " << t.camera.fy << ", \"cx\": " << t.camera.cx
-      << ", \"cy\": " << t.camera.cy << ", \"distortion\": [";
-  for (std::size_t i = 0; i < t.camera.distortion.size(); ++i)
-    out << (i ? ", " : "") << t.camera.distortion[i];
-  out << "]}"
-      << ", \"pose\": {\"distance\": " << t.pose.distance << ", \"lateral\": " << t.pose.lateral
-      << ", \"height\": " << t.pose.height << ", \"yaw\": " << t.pose.yaw << ", \"pitch\": " << t.pose.pitch << "}";
-  writeField(out, "distance", t.distance);
-  writeField(out, "range", t.range);
-  writeXyz(out, "position", t.position.x, t.position.y, t.position.z);
-  writeField(out, "yaw", t.yaw);
-  writeField(out, "lateral_offset", t.lateral_offset);
-  out << ", \"flange\": ";
-  writeCircle(out, t.flange);
-  out << ", \"hole\": ";
-  writeCircle(out, t.hole);
-  out << ", \"reference\": ";
-  if (std::isfinite(t.reference.x))
-    out << "{\"x\": " << t.reference.x << ", \"y\": " << t.reference.y << "}";
-  else
-    out << "null";
-  out << std::boolalpha << ", \"flange_half_visible\": " << t.flange_half_visible
-      << ", \"hole_in_view\": " << t.hole_in_view << ", \"hole_occluded\": " << t.hole_occluded
-      << ", \"bore_visible\": " << t.bore_visible << ", \"hole_lit_fraction\": " << t.hole_lit_fraction
-      << ", \"hole_lens\": ";
-  if (std::isfinite(t.hole_lens.x))
-    out << "{\"x\": " << t.hole_lens.x << ", \"y\": " << t.hole_lens.y << "}";
-  else
-    out << "null";
-  writeField(out, "puller_miss", t.puller_miss);
-  writeField(out, "puller_clearance", t.puller_clearance);
-  writeXyz(out, "axis", t.axis[0], t.axis[1], t.axis[2]);
-  writeField(out, "axis_angle", t.axis_angle);
-  writeField(out, "axis_yaw", t.axis_yaw);
-  out << ", \"puller_clears\": " << t.puller_clears << ", \"aligned\": " << t.aligned
-      << ", \"spool_centre_in_view\": " << t.spool_centre_in_view << ", \"neighbours\": [";
-  for (std::size_t i = 0; i < t.neighbours.size(); ++i)
-  {
-    out << (i ? ", " : "");
-    out << "{\"flange\": ";
-    writeCircle(out, t.neighbours[i].flange);
-    writeField(out, "distance", t.neighbours[i].distance);
-    writeField(out, "yaw", t.neighbours[i].yaw);
-    out << "}";
-  }
-  out << "]}";
-  return out.str();
+  Json neighbours = Json::array();
+  for (const NeighbourTruth& n : t.neighbours)
+    neighbours.push_back({{"flange", circleJson(n.flange)}, {"distance", number(n.distance)}, {"yaw", number(n.yaw)}});
+  return {{"kind", toString(t.kind)},
+          {"lamps", toString(t.lamps)},
+          {"illuminance", number(t.illuminance)},
+          {"width", t.camera.width},
+          {"height", t.camera.height},
+          {"camera",
+           {{"fx", t.camera.fx},
+            {"fy", t.camera.fy},
+            {"cx", t.camera.cx},
+            {"cy", t.camera.cy},
+            {"distortion", t.camera.distortion}}},
+          {"pose",
+           {{"distance", t.pose.distance},
+            {"lateral", t.pose.lateral},
+            {"height", t.pose.height},
+            {"yaw", t.pose.yaw},
+            {"pitch", t.pose.pitch}}},
+          {"distance", number(t.distance)},
+          {"range", number(t.range)},
+          {"position", xyz(t.position.x, t.position.y, t.position.z)},
+          {"yaw", number(t.yaw)},
+          {"lateral_offset", number(t.lateral_offset)},
+          {"flange", circleJson(t.flange)},
+          {"hole", circleJson(t.hole)},
+          {"reference", std::isfinite(t.reference.x) ? Json{{"x", t.reference.x}, {"y", t.reference.y}} : Json()},
+          {"flange_half_visible", t.flange_half_visible},
+          {"hole_in_view", t.hole_in_view},
+          {"hole_occluded", t.hole_occluded},
+          {"bore_visible", t.bore_visible},
+          {"hole_lit_fraction", t.hole_lit_fraction},
+          {"hole_lens", std::isfinite(t.hole_lens.x) ? Json{{"x", t.hole_lens.x}, {"y", t.hole_lens.y}} : Json()},
+          {"puller_miss", number(t.puller_miss)},
+          {"puller_clearance", number(t.puller_clearance)},
+          {"axis", xyz(t.axis[0], t.axis[1], t.axis[2])},
+          {"axis_angle", number(t.axis_angle)},
+          {"axis_yaw", number(t.axis_yaw)},
+          {"puller_clears", t.puller_clears},
+          {"aligned", t.aligned},
+          {"spool_centre_in_view", t.spool_centre_in_view},
+          {"neighbours", neighbours}};
 }
 
 }  // namespace spool_vision

@@ -3,41 +3,14 @@
 #include <cmath>
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
+
 namespace spool_vision
 {
 std::string JsonObject::quote(const std::string& s)
 {
-  std::string out = "\"";
-  for (const char c : s)
-  {
-    switch (c)
-    {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20)
-        {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-          out += buf;
-        }
-        else
-        {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
+  // nlohmann's escaping; bytes that are not UTF-8 (a file name can hold any) become U+FFFD.
+  return nlohmann::json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 void JsonObject::key(const std::string& k)

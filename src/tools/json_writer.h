@@ -1,4 +1,5 @@
-// A minimal JSON object writer for the tools' one-object-per-line output.
+// spool_detect's one-object-per-line output: `"key": value` pairs joined by ", ", numbers with a
+// fixed number of decimals (the format its users and tests read); strings escaped by nlohmann-json.
 #pragma once
 
 #include <string>

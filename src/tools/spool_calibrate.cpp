@@ -10,9 +10,9 @@
 
 #include "cli_args.h"
 #include "image_file.h"
-#include "spool_vision/io/config_io.h"
 #include "spool_vision/focal_calibration.h"
 #include "spool_vision/io/calibration_csv.h"
+#include "spool_vision/io/config_io.h"
 #include "spool_vision/spool_detector.h"
 
 namespace sv = spool_vision;

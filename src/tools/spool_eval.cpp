@@ -15,8 +15,8 @@
 #include <opencv2/core.hpp>
 
 #include "cli_args.h"
-#include "spool_vision/io/config_io.h"
 #include "spool_vision/eval/evaluation.h"
+#include "spool_vision/io/config_io.h"
 
 namespace sv = spool_vision;
 using sv::cli::UsageError;

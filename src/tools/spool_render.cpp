@@ -17,8 +17,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_args.h"
-#include "spool_vision/io/config_io.h"
 #include "spool_vision/eval/evaluation.h"
+#include "spool_vision/io/config_io.h"
 #include "spool_vision/render/spool_renderer.h"
 
 namespace sv = spool_vision;
@@ -132,9 +132,11 @@ int run(int argc, char** argv)
     const fs::path png = fs::path(o.out) / (std::string(name) + ".png");
     if (!cv::imwrite(png.string(), frame.image))
       throw std::runtime_error("cannot write " + png.string());
+    nlohmann::ordered_json line = {
+        {"image", std::string(name) + ".png"}, {"index", i}, {"set", o.set}, {"seed", scene.seed}};
+    line.update(sv::groundTruthJson(frame.truth));
     std::ofstream json(fs::path(o.out) / (std::string(name) + ".json"));
-    json << "{\"image\": \"" << name << ".png\", \"index\": " << i << ", \"set\": \"" << o.set
-         << "\", \"seed\": " << scene.seed << ", " << sv::groundTruthToJson(frame.truth).substr(1) << "\n";
+    json << line.dump() << "\n";
     if (!json)
       throw std::runtime_error("cannot write the JSON of " + png.string());
     if ((i + 1) % 50 == 0 || i + 1 == o.count)

@@ -19,8 +19,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "spool_vision/camera_model.h"
-#include "spool_vision/spool_detector.h"
 #include "spool_vision/render/spool_renderer.h"
+#include "spool_vision/spool_detector.h"
 #include "synthetic.h"
 
 extern "C"

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_process.h"
@@ -208,16 +209,13 @@ TEST(SpoolRenderCli, DistortedSetAndLensOption)
   const CliRun lens = spoolRender("--out " + (root / "lens").string() +
                                   " --width 64 --height 48 --count 1 --distortion -0.1,0.02,0,0,0,0.01,0,0");
   ASSERT_EQ(lens.exit_code, 0) << lens.errors;
-  auto json = [](const fs::path& path)
-  {
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    return text.str();
-  };
-  EXPECT_TRUE(has(json(root / "set" / "frame_00000.json"), "\"distortion\": [-0.2, 0.05, 0.001, -0.0005, 0]"));
-  EXPECT_TRUE(has(json(root / "set" / "frame_00000.json"), "\"set\": \"distorted\""));
-  EXPECT_TRUE(has(json(root / "lens" / "frame_00000.json"), "\"distortion\": [-0.1, 0.02, 0, 0, 0, 0.01, 0, 0]"));
+  auto json = [](const fs::path& path) { return nlohmann::json::parse(std::ifstream(path)); };
+  const nlohmann::json truth = json(root / "set" / "frame_00000.json");
+  EXPECT_EQ(truth["camera"]["distortion"], nlohmann::json({-0.2, 0.05, 0.001, -0.0005, 0.0}));
+  EXPECT_EQ(truth["set"], "distorted");
+  EXPECT_EQ(truth["image"], "frame_00000.png");
+  EXPECT_EQ(json(root / "lens" / "frame_00000.json")["camera"]["distortion"],
+            nlohmann::json({-0.1, 0.02, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0}));
   EXPECT_TRUE(fs::exists(root / "lens" / "frame_00000.png"));
 }
 

@@ -13,8 +13,8 @@
 #include <opencv2/core.hpp>
 
 #include "spool_vision/detector_params.h"
-#include "spool_vision/spool_detector.h"
 #include "spool_vision/render/spool_renderer.h"
+#include "spool_vision/spool_detector.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "spool_vision/types.h"
@@ -286,7 +287,7 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed);
 /// ribbed faces, a dark bore interior, clutter and the puller rod (the hard set). Deterministic.
 SceneParams randomHardScene(SceneKind kind, std::uint64_t seed);
 
-/// One JSON object (single line) describing `truth`; NaN and missing circles are null.
-std::string groundTruthToJson(const GroundTruth& truth);
+/// `truth` as a JSON object, keys in a fixed order; NaN and missing circles are null.
+nlohmann::ordered_json groundTruthJson(const GroundTruth& truth);
 
 }  // namespace spool_vision
