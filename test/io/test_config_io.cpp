@@ -9,22 +9,17 @@
 #include <yaml-cpp/yaml.h>
 
 #include "spool_vision/io/config_io.h"
+#include "temp_file.h"
 
 using spool_vision::DetectorParams;
 using spool_vision::loadCameraInfoYaml;
 using spool_vision::loadParamsYaml;
 using spool_vision::ParamError;
+using spool_vision::test::writeTemp;
 
 namespace
 {
 const std::string kConfigDir = SPOOL_CONFIG_DIR;
-
-std::string writeTemp(const std::string& name, const std::string& text)
-{
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path) << text;
-  return path;
-}
 }  // namespace
 
 TEST(ConfigIo, DefaultYamlListsEveryKeyWithTheBuiltInValue)
