@@ -25,6 +25,26 @@ bool openCamera(cv::VideoCapture& capture, const std::string& device, int width,
   return true;
 }
 
+// Publishes `frame` stamped now, with the calibration (or, uncalibrated, a camera_info of zero
+// K that still gives the frame's size).
+void publishFrame(const cv::Mat& frame, const std::string& frame_id,
+                  camera_info_manager::CameraInfoManager& info_manager, image_transport::CameraPublisher& publisher)
+{
+  std_msgs::Header header;
+  header.stamp = ros::Time::now();
+  header.frame_id = frame_id;
+  sensor_msgs::CameraInfo info = info_manager.getCameraInfo();
+  info.header = header;
+  if (!info_manager.isCalibrated())
+  {
+    info.width = frame.cols;
+    info.height = frame.rows;
+  }
+  const std::string& encoding =
+      frame.channels() == 1 ? sensor_msgs::image_encodings::MONO8 : sensor_msgs::image_encodings::BGR8;
+  publisher.publish(*cv_bridge::CvImage(header, encoding, frame).toImageMsg(), info);
+}
+
 }  // namespace
 
 int main(int argc, char** argv)
@@ -76,19 +96,7 @@ int main(int argc, char** argv)
       openCamera(capture, device, width, height, fps);
       continue;
     }
-    std_msgs::Header header;
-    header.stamp = ros::Time::now();
-    header.frame_id = frame_id;
-    sensor_msgs::CameraInfo info = info_manager.getCameraInfo();
-    info.header = header;
-    if (!info_manager.isCalibrated())
-    {
-      info.width = frame.cols;
-      info.height = frame.rows;
-    }
-    const std::string& encoding =
-        frame.channels() == 1 ? sensor_msgs::image_encodings::MONO8 : sensor_msgs::image_encodings::BGR8;
-    publisher.publish(*cv_bridge::CvImage(header, encoding, frame).toImageMsg(), info);
+    publishFrame(frame, frame_id, info_manager, publisher);
     ros::spinOnce();
     rate.sleep();
   }
