@@ -229,6 +229,11 @@ private:
   /// taken_: the indices into near_ of the edges in the band `band` px wide about the axis-aligned
   /// ellipse (cx, cy, semi_x, semi_y) that support it for `sign` (centreSign); returns their count.
   std::size_t pickBand(double cx, double cy, double semi_x, double semi_y, double band, float sign);
+  /// The edges of near_ within `band` px of the axis-aligned ellipse (semi_x, semi_y) centred at
+  /// `c` that support it for `sign` (centreSign), each weighted by how close it lies (1 on the
+  /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of
+  /// a grid step. `count`, if given, gets the plain count.
+  double ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign, int* count) const;
   /// Fills near_ (near_count_) with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
   /// zero = all round).
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,

@@ -470,52 +470,59 @@ int EdgeDetector::boundedThreshold(const cv::Rect& area, int t2, std::size_t max
   return t2;
 }
 
-void EdgeDetector::placeInLinearLight(const LinearLight& linear, std::vector<EdgePoint>& edges)
+namespace
+{
+// The linear light at (x, y) of `linear`'s gray frame: bilinear, clamped to the frame.
+float linearLightAt(const LinearLight& linear, float x, float y)
 {
   const cv::Mat& gray = *linear.gray;
   const float* table = linear.table;
-  auto light = [&](float x, float y)  // bilinear, clamped to the frame
+  x = std::clamp(x, 0.0f, static_cast<float>(gray.cols - 1));
+  y = std::clamp(y, 0.0f, static_cast<float>(gray.rows - 1));
+  const int x0 = std::min(static_cast<int>(x), std::max(gray.cols - 2, 0));
+  const int y0 = std::min(static_cast<int>(y), std::max(gray.rows - 2, 0));
+  const int x1 = std::min(x0 + 1, gray.cols - 1);
+  const int y1 = std::min(y0 + 1, gray.rows - 1);
+  const float fx = x - static_cast<float>(x0);
+  const float fy = y - static_cast<float>(y0);
+  const uchar* top = gray.ptr<uchar>(y0);
+  const uchar* bottom = gray.ptr<uchar>(y1);
+  return (1.0f - fy) * ((1.0f - fx) * table[top[x0]] + fx * table[top[x1]]) +
+         fy * ((1.0f - fx) * table[bottom[x0]] + fx * table[bottom[x1]]);
+}
+
+constexpr int kMaxHalfSteps = 16;
+
+// Where the light crosses half-way between its dark and bright levels along edge `e`'s gradient
+// near `at`: the offset (px) from `at`, read from 2 n + 1 half-pixel samples; NaN without one.
+float halfLightCrossing(const LinearLight& linear, int n, const cv::Point2f& at, const EdgePoint& e)
+{
+  std::array<float, 2 * kMaxHalfSteps + 1> profile{};
+  for (int k = -n; k <= n; ++k)
+    profile[static_cast<std::size_t>(k + n)] = linearLightAt(linear, at.x + 0.5f * k * e.dx, at.y + 0.5f * k * e.dy);
+  const float dark = 0.5f * (profile[0] + profile[1]);
+  const float bright = 0.5f * (profile[static_cast<std::size_t>(2 * n)] + profile[static_cast<std::size_t>(2 * n - 1)]);
+  float move = std::numeric_limits<float>::quiet_NaN();
+  if (!(bright > dark))
+    return move;
+  const float half = 0.5f * (dark + bright);
+  for (int k = 0; k < 2 * n; ++k)
   {
-    x = std::clamp(x, 0.0f, static_cast<float>(gray.cols - 1));
-    y = std::clamp(y, 0.0f, static_cast<float>(gray.rows - 1));
-    const int x0 = std::min(static_cast<int>(x), std::max(gray.cols - 2, 0));
-    const int y0 = std::min(static_cast<int>(y), std::max(gray.rows - 2, 0));
-    const int x1 = std::min(x0 + 1, gray.cols - 1);
-    const int y1 = std::min(y0 + 1, gray.rows - 1);
-    const float fx = x - static_cast<float>(x0);
-    const float fy = y - static_cast<float>(y0);
-    const uchar* top = gray.ptr<uchar>(y0);
-    const uchar* bottom = gray.ptr<uchar>(y1);
-    return (1.0f - fy) * ((1.0f - fx) * table[top[x0]] + fx * table[top[x1]]) +
-           fy * ((1.0f - fx) * table[bottom[x0]] + fx * table[bottom[x1]]);
-  };
-  // Half-pixel samples along the gradient (dark to light), kMaxSamples at most.
-  constexpr int kMaxHalfSteps = 16;
+    const float a = profile[static_cast<std::size_t>(k)];
+    const float b = profile[static_cast<std::size_t>(k + 1)];
+    const float t = 0.5f * (static_cast<float>(k - n) + (half - a) / (b - a));
+    if (a <= half && b > half && !(std::abs(t) >= std::abs(move)))
+      move = t;
+  }
+  return move;
+}
+}  // namespace
+
+void EdgeDetector::placeInLinearLight(const LinearLight& linear, std::vector<EdgePoint>& edges)
+{
+  // Half-pixel samples along the gradient (dark to light), kMaxHalfSteps each side at most.
   constexpr float kMaxMove = 2.0f;  // px: further off, the crossing belongs to another edge
   const int n = std::clamp(static_cast<int>(std::ceil(2.0 * linear.reach)), 2, kMaxHalfSteps);
-  std::array<float, 2 * kMaxHalfSteps + 1> profile{};
-  // The crossing of the profile read about `at`, relative to it (NaN without one near it).
-  auto crossing = [&](const cv::Point2f& at, const EdgePoint& e)
-  {
-    for (int k = -n; k <= n; ++k)
-      profile[static_cast<std::size_t>(k + n)] = light(at.x + 0.5f * k * e.dx, at.y + 0.5f * k * e.dy);
-    const float dark = 0.5f * (profile[0] + profile[1]);
-    const float bright =
-        0.5f * (profile[static_cast<std::size_t>(2 * n)] + profile[static_cast<std::size_t>(2 * n - 1)]);
-    float move = std::numeric_limits<float>::quiet_NaN();
-    if (!(bright > dark))
-      return move;
-    const float half = 0.5f * (dark + bright);
-    for (int k = 0; k < 2 * n; ++k)
-    {
-      const float a = profile[static_cast<std::size_t>(k)];
-      const float b = profile[static_cast<std::size_t>(k + 1)];
-      const float t = 0.5f * (static_cast<float>(k - n) + (half - a) / (b - a));
-      if (a <= half && b > half && !(std::abs(t) >= std::abs(move)))
-        move = t;
-    }
-    return move;
-  };
   for (EdgePoint& e : edges)
   {
     // Read again about the moved point: the levels either side are then taken as far from the
@@ -523,7 +530,7 @@ void EdgeDetector::placeInLinearLight(const LinearLight& linear, std::vector<Edg
     cv::Point2f at(e.x, e.y);
     for (int pass = 0; pass < 2; ++pass)
     {
-      const float move = crossing(at, e);
+      const float move = halfLightCrossing(linear, n, at, e);
       if (!(std::abs(move) <= kMaxMove))
         break;
       at += cv::Point2f(move * e.dx, move * e.dy);
@@ -907,6 +914,28 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
   return circle.visible_fraction >= search.min_visible_fraction;
 }
 
+double HoughAccumulator::ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign,
+                                        int* count) const
+{
+  const double mean_r = std::sqrt(semi_x * semi_y);
+  double soft = 0.0;
+  int n = 0;
+  for (std::size_t i = 0; i < near_count_; ++i)
+  {
+    const EdgePoint& e = near_[i];
+    const double vx = e.x - c.x;
+    const double vy = e.y - c.y;
+    const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
+    const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
+    const bool supports = (off <= band) & aligned;
+    soft += supports ? 1.0 - off / band : 0.0;
+    n += supports ? 1 : 0;
+  }
+  if (count)
+    *count = n;
+  return soft;
+}
+
 bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size,
                                        const HoughSearch& search, const cv::Point2d& start, double semi_x,
                                        double semi_y, double max_shift, const cv::Point2d& side, Circle& circle)
@@ -916,27 +945,6 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   const double band = std::max(0.75, 0.04 * mean_r);
   gatherNear(edges, start, std::min(semi_x, semi_y) - max_shift - band, std::max(semi_x, semi_y) + max_shift + band,
              side);
-  // Edges within the band about the ellipse centred at c, each weighted by how close it lies to
-  // the ellipse (a soft count, so the best centre is found to a fraction of the grid step).
-  auto support = [&](const cv::Point2d& c, int* count)
-  {
-    double soft = 0.0;
-    int n = 0;
-    for (std::size_t i = 0; i < near_count_; ++i)
-    {
-      const EdgePoint& e = near_[i];
-      const double vx = e.x - c.x;
-      const double vy = e.y - c.y;
-      const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
-      const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
-      const bool supports = (off <= band) & aligned;
-      soft += supports ? 1.0 - off / band : 0.0;
-      n += supports ? 1 : 0;
-    }
-    if (count)
-      *count = n;
-    return soft;
-  };
   cv::Point2d best = start;
   double best_soft = -1.0;
   auto search_grid = [&](const cv::Point2d& around, double reach, double step)
@@ -947,7 +955,7 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
       for (int ix = -steps; ix <= steps; ++ix)
       {
         const cv::Point2d c(from.x + step * ix, from.y + step * iy);
-        const double soft = support(c, nullptr);
+        const double soft = ellipseSupport(c, semi_x, semi_y, band, sign, nullptr);
         if (soft > best_soft)
         {
           best_soft = soft;
@@ -962,7 +970,7 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   search_grid(best, 0.2, 0.06);
   search_grid(best, 0.04, 0.02);
   int count = 0;
-  support(best, &count);
+  ellipseSupport(best, semi_x, semi_y, band, sign, &count);
   if (count < 8)
     return false;
   circle.x = best.x;
