@@ -1099,6 +1099,41 @@ SpoolRenderer::SpoolRenderer(const CameraIntrinsics& camera) : camera_(camera)
     throw std::invalid_argument("SpoolRenderer: invalid camera intrinsics");
 }
 
+namespace
+{
+// The slot spool's pose truth from its bore's front centre `c` and its axis (the world's z) in
+// the camera optical frame: position, depth, range, bearing, the puller reference, the axis'
+// angles and the puller's clearance at both ends of the bore. The puller axis runs along z
+// through (0, kPullerOffsetY, 0).
+void poseTruth(const CameraIntrinsics& camera, const Vec3& c, const Vec3& axis, const SceneParams& scene,
+               GroundTruth& gt)
+{
+  gt.position = cv::Point3d(c.x(), c.y(), c.z());
+  gt.distance = c.z();
+  gt.range = c.norm();
+  gt.reference = imagePoint(camera, Vec3(0.0, SpoolRenderer::kPullerOffsetY, c.z()));
+  gt.yaw = std::atan(c.x() / c.z());
+  gt.lateral_offset = c.x();
+
+  gt.axis = cv::Vec3d(axis.x(), axis.y(), axis.z());
+  gt.axis_angle = std::acos(std::clamp(axis.z(), -1.0, 1.0));
+  gt.axis_yaw = std::atan2(axis.x(), axis.z());
+  // The puller axis' miss of the bore axis in the plane across the bore at `end` (on its axis).
+  const Vec3 puller(0.0, SpoolRenderer::kPullerOffsetY, 0.0);
+  auto missAt = [&](const Vec3& end)
+  {
+    const Vec3 through = puller + Vec3::UnitZ() * ((end - puller).dot(axis) / axis.z());
+    return (through - end).norm();
+  };
+  gt.puller_miss = missAt(c);
+  const double tolerance = 0.5 * (scene.hole_diameter - SpoolRenderer::kPullerDiameter);
+  gt.puller_clearance = tolerance - std::max(gt.puller_miss, missAt(c + scene.bore_length * axis));
+  gt.puller_clears = gt.puller_clearance >= 0.0;
+  gt.aligned = gt.puller_clears && gt.distance >= SpoolRenderer::kAlignedDistanceMin &&
+               gt.distance <= SpoolRenderer::kAlignedDistanceMax;
+}
+}  // namespace
+
 GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPose& pose) const
 {
   const CameraFrame cam = cameraFrame(pose);
@@ -1135,31 +1170,7 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   gt.hole_lens = opening.lens;
   gt.bore_visible = gt.hole_lit_fraction > 0.0;
 
-  // Camera optical frame from here on; the puller axis runs along z through (0, kPullerOffsetY, 0).
-  const Vec3 c = world_to_cam * (centre - cam.centre);
-  gt.position = cv::Point3d(c.x(), c.y(), c.z());
-  gt.distance = c.z();
-  gt.range = c.norm();
-  gt.reference = imagePoint(camera_, Vec3(0.0, kPullerOffsetY, c.z()));
-  gt.yaw = std::atan(c.x() / c.z());
-  gt.lateral_offset = c.x();
-
-  const Vec3 axis = world_to_cam * Vec3::UnitZ();  // the spool axis is the world's z
-  gt.axis = cv::Vec3d(axis.x(), axis.y(), axis.z());
-  gt.axis_angle = std::acos(std::clamp(axis.z(), -1.0, 1.0));
-  gt.axis_yaw = std::atan2(axis.x(), axis.z());
-  // The puller axis' miss of the bore axis in the plane across the bore at `end` (on its axis).
-  const Vec3 puller(0.0, kPullerOffsetY, 0.0);
-  auto missAt = [&](const Vec3& end)
-  {
-    const Vec3 through = puller + Vec3::UnitZ() * ((end - puller).dot(axis) / axis.z());
-    return (through - end).norm();
-  };
-  gt.puller_miss = missAt(c);
-  const double tolerance = 0.5 * (scene.hole_diameter - kPullerDiameter);
-  gt.puller_clearance = tolerance - std::max(gt.puller_miss, missAt(c + scene.bore_length * axis));
-  gt.puller_clears = gt.puller_clearance >= 0.0;
-  gt.aligned = gt.puller_clears && gt.distance >= kAlignedDistanceMin && gt.distance <= kAlignedDistanceMax;
+  poseTruth(camera_, world_to_cam * (centre - cam.centre), world_to_cam * Vec3::UnitZ(), scene, gt);
   return gt;
 }
 
