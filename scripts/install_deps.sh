@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages spool_vision needs (ROS 1 from Debian, OpenCV, Eigen, CLI11,
-# nlohmann-json, GTest, Google Benchmark; clang with libFuzzer and the sanitizer runtimes,
-# llvm-symbolizer for readable reports). Idempotent: packages already installed are skipped, and
-# apt is not touched when nothing is missing.
+# nlohmann-json, matplotlib for the report charts, GTest, Google Benchmark; clang with libFuzzer
+# and the sanitizer runtimes, llvm-symbolizer for readable reports). Idempotent: packages already
+# installed are skipped, and apt is not touched when nothing is missing.
 set -euo pipefail
 
 PACKAGES=(
@@ -14,7 +14,7 @@ PACKAGES=(
   libnodeletlib-dev pluginlib-dev librostest-dev libstd-msgs-dev
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-sensor-msgs
   python3-dynamic-reconfigure python3-cv-bridge python3-numpy
-  python3-opencv python3-yaml python3-std-srvs python3-rosgraph-msgs python3-diagnostic-msgs ros-image-view
+  python3-opencv python3-yaml python3-matplotlib python3-std-srvs python3-rosgraph-msgs python3-diagnostic-msgs ros-image-view
   python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools rviz
   libnodeletlib-tools
   libopencv-dev libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev

@@ -1,11 +1,12 @@
-// Small PNG charts drawn with OpenCV (axes, ticks, grid, legend) for the evaluation report.
+// The evaluation report's charts as data: the report writes them to charts.json, and
+// scripts/plot_charts.py (matplotlib) draws each one as the PNG it names.
 #pragma once
 
 #include <limits>
 #include <string>
 #include <vector>
 
-#include <opencv2/core.hpp>
+#include <nlohmann/json.hpp>
 
 namespace spool_vision::chart
 {
@@ -48,13 +49,12 @@ struct BarChart
   std::vector<std::string> categories;
   std::vector<BarGroup> groups;
   double y_max = std::numeric_limits<double>::quiet_NaN();  ///< NaN = from the data
-  std::vector<Level> levels;
 };
 
-cv::Mat draw(const LineChart& chart);
-cv::Mat draw(const BarChart& chart);
-
-/// "Nice" tick positions (1, 2, 2.5 or 5 times a power of ten) covering [lo, hi].
-std::vector<double> ticks(double lo, double hi, int approx_count);
+/// One entry of charts.json: `file` (the PNG's name in the report folder), `kind` ("line" or
+/// "bar") and the chart's fields under their names here; NaN is written as null (nlohmann-json's
+/// rule for numbers JSON cannot hold).
+nlohmann::ordered_json toJson(const LineChart& chart, const std::string& file);
+nlohmann::ordered_json toJson(const BarChart& chart, const std::string& file);
 
 }  // namespace spool_vision::chart

@@ -161,6 +161,7 @@ void measurePoses(const Setup& setup, const std::vector<PoseSpec>& poses, int re
           renderer.render(scene, bearingPose(poses[i].distance, poses[i].bearing, 0.0, 0.06, 0.0));
       point.distance = frame.truth.distance;
       point.yaw = frame.truth.yaw;
+      point.range = poses[i].distance;
       const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
       ++m.frames;
       if (!scoreFrame(frame.truth, d).correct)
@@ -411,7 +412,7 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
   const std::vector<PoseSpec> distance_poses = sweep({0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1}, 0.0, 0.0, 1.0);
   const std::vector<PoseSpec> yaw_poses = sweep({1.0, 0.9, 0.8}, -20.0, 20.0, 5.0);
   const std::vector<PoseSpec> tx_poses = sweep({0.5, 0.6}, -1.0, 1.0, 0.25);
-  const PosePoint empty_point{0.0, 0.0, std::vector<PoseMeasurement>(config.setups.size())};
+  const PosePoint empty_point{0.0, 0.0, 0.0, std::vector<PoseMeasurement>(config.setups.size())};
   result.distance_sweep.assign(distance_poses.size(), empty_point);
   result.yaw_sweep.assign(yaw_poses.size(), empty_point);
   result.tx_sweep.assign(tx_poses.size(), empty_point);

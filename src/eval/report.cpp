@@ -1,5 +1,5 @@
 // The report: the §7 headline table, the failure breakdown, the thesis analyses as Markdown
-// tables, and their PNG charts.
+// tables, and the data of their charts (charts.json, drawn by scripts/plot_charts.py).
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -7,8 +7,6 @@
 #include <functional>
 #include <sstream>
 #include <stdexcept>
-
-#include <opencv2/imgcodecs.hpp>
 
 #include "chart.h"
 #include "spool_vision/eval/evaluation.h"
@@ -125,18 +123,12 @@ chart::Series& seriesFor(chart::LineChart& c, const std::string& label, bool lin
   return c.series.back();
 }
 
-void save(const cv::Mat& image, const std::filesystem::path& path)
+void write(const std::string& text, const std::filesystem::path& path)
 {
-  if (!cv::imwrite(path.string(), image))
-    throw std::runtime_error("cannot write " + path.string());
-}
-
-void write(const std::string& markdown, const std::filesystem::path& dir)
-{
-  std::ofstream out(dir / "report.md");
-  out << markdown;
+  std::ofstream out(path);
+  out << text;
   if (!out)
-    throw std::runtime_error("cannot write " + (dir / "report.md").string());
+    throw std::runtime_error("cannot write " + path.string());
 }
 
 // --- the sections ------------------------------------------------------------------------------
@@ -182,7 +174,7 @@ std::string variantTable(const EvaluationResult& result, const VariantAnalysis& 
       rows);
 }
 
-cv::Mat variantChart(const EvaluationResult& result, const VariantAnalysis& analysis)
+chart::BarChart variantChart(const EvaluationResult& result, const VariantAnalysis& analysis)
 {
   chart::BarChart c;
   c.title = analysis.title;
@@ -202,10 +194,10 @@ cv::Mat variantChart(const EvaluationResult& result, const VariantAnalysis& anal
         group.values.push_back(100.0 * rate(row.per_setup[s]).value());
       c.groups.push_back(group);
     }
-  return chart::draw(c);
+  return c;
 }
 
-std::string distanceSection(const EvaluationResult& result, const std::filesystem::path& dir)
+std::string distanceSection(const EvaluationResult& result, nlohmann::ordered_json& charts)
 {
   std::vector<std::string> header = {"true distance (cm)"};
   chart::LineChart c{"Distance error straight on (thesis Fig. 4.16)",
@@ -234,11 +226,11 @@ std::string distanceSection(const EvaluationResult& result, const std::filesyste
     }
     rows.push_back(row);
   }
-  save(chart::draw(c), dir / "distance.png");
+  charts.push_back(chart::toJson(c, "distance.png"));
   return markdownTable(header, rows) + "\n![distance error](distance.png)\n";
 }
 
-std::string yawSection(const EvaluationResult& result, const std::filesystem::path& dir)
+std::string yawSection(const EvaluationResult& result, nlohmann::ordered_json& charts)
 {
   std::vector<std::string> header = {"distance (cm)", "true yaw (°)"};
   chart::LineChart c{"Yaw error, -20 to 20 deg (thesis Table 4.1)", "true yaw (deg)", "measured - true (deg)", {}, {}};
@@ -257,17 +249,17 @@ std::string yawSection(const EvaluationResult& result, const std::filesystem::pa
       row.insert(row.end(), {fixed(p.per_setup[s].yaw * kToDeg, 2), fixed(error, 3),
                              relative ? fixed(100.0 * std::abs(error / (p.yaw * kToDeg)), 2) : "-"});
       chart::Series& series =
-          seriesFor(c, result.config.setups[s].name + ", " + fixed(100.0 * p.distance, 0) + " cm", true);
+          seriesFor(c, result.config.setups[s].name + ", " + fixed(100.0 * p.range, 0) + " cm", true);
       series.x.push_back(p.yaw * kToDeg);
       series.y.push_back(error);
     }
     rows.push_back(row);
   }
-  save(chart::draw(c), dir / "yaw.png");
+  charts.push_back(chart::toJson(c, "yaw.png"));
   return markdownTable(header, rows) + "\n![yaw error](yaw.png)\n";
 }
 
-std::string txSection(const EvaluationResult& result, const std::filesystem::path& dir, double tolerance)
+std::string txSection(const EvaluationResult& result, nlohmann::ordered_json& charts, double tolerance)
 {
   std::vector<std::string> header = {"distance (cm)", "true yaw (°)", "true tx_r (cm)"};
   chart::LineChart c{"Lateral error tx_r = D |tan yaw| near 0 deg (thesis Fig. 4.17)",
@@ -281,7 +273,7 @@ std::string txSection(const EvaluationResult& result, const std::filesystem::pat
   std::vector<std::vector<std::string>> rows;
   for (const PosePoint& p : result.tx_sweep)
   {
-    const std::string at = fixed(100.0 * p.distance, 0) + " cm";
+    const std::string at = fixed(100.0 * p.range, 0) + " cm";
     const double truth = p.distance * std::abs(std::tan(p.yaw));
     std::vector<std::string> row = {fixed(100.0 * p.distance, 0), fixed(p.yaw * kToDeg, 2), fixed(100.0 * truth, 3)};
     chart::Series& true_series = seriesFor(c, "true, " + at, true);
@@ -298,7 +290,7 @@ std::string txSection(const EvaluationResult& result, const std::filesystem::pat
     }
     rows.push_back(row);
   }
-  save(chart::draw(c), dir / "tx_r.png");
+  charts.push_back(chart::toJson(c, "tx_r.png"));
   return markdownTable(header, rows) + "\n![tx_r](tx_r.png)\n";
 }
 }  // namespace
@@ -582,8 +574,8 @@ std::string scoringSection()
   return md.str();
 }
 
-// The thesis' chapter 4 analyses, their charts saved in `dir`.
-std::string chapterFourSection(const EvaluationResult& result, const std::filesystem::path& dir)
+// The thesis' chapter 4 analyses, their charts appended to `charts`.
+std::string chapterFourSection(const EvaluationResult& result, nlohmann::ordered_json& charts)
 {
   std::ostringstream md;
   const EvaluationConfig& config = result.config;
@@ -591,7 +583,7 @@ std::string chapterFourSection(const EvaluationResult& result, const std::filesy
      << "On the setups marked above; every variant runs on the same frames as the first headline table.\n\n";
   for (const VariantAnalysis& analysis : result.analyses)
   {
-    save(variantChart(result, analysis), dir / (analysis.key + ".png"));
+    charts.push_back(chart::toJson(variantChart(result, analysis), analysis.key + ".png"));
     md << "### " << analysis.title << "\n\n"
        << analysis.note << "\n\n"
        << variantTable(result, analysis) << "\n![" << analysis.key << "](" << analysis.key << ".png)\n\n";
@@ -602,14 +594,14 @@ std::string chapterFourSection(const EvaluationResult& result, const std::filesy
           : 0.5 * (config.setups[0].params.geometry.hole_diameter - config.setups[0].params.geometry.puller_diameter);
   md << "### Distance (thesis Fig. 4.16)\n\nStraight on (bearing 0, camera 6 cm above the hole axis); measured is "
      << "the mean over the scenes where the flange was found correctly. Thesis: errors up to about 1.6%.\n\n"
-     << distanceSection(result, dir) << "\n"
+     << distanceSection(result, charts) << "\n"
      << "### Yaw (thesis Table 4.1)\n\nThe spool at a known bearing at 80, 90 and 100 cm. Thesis: 0-1.47% error "
      << "for most angles, up to 6% for some.\n\n"
-     << yawSection(result, dir) << "\n"
+     << yawSection(result, charts) << "\n"
      << "### tx_r near alignment (thesis Fig. 4.17)\n\ntx_r = D·|tan θ| (Eq. 3.8) from the measured D and θ, "
      << "against the clearance t_f. Thesis: tx_r ≤ 0.25 cm within ±0.25° at 50 and 60 cm (0.26 cm at 60 cm, "
      << "0.25°).\n\n"
-     << txSection(result, dir, tolerance);
+     << txSection(result, charts, tolerance);
   return md.str();
 }
 
@@ -620,9 +612,11 @@ void writeReport(const EvaluationResult& result, const std::string& dir_name)
   const std::filesystem::path dir(dir_name);
   std::filesystem::create_directories(dir);
   std::string md = introSection(result) + headlineSection(result) + poseSection(result) + scoringSection();
+  nlohmann::ordered_json charts = nlohmann::ordered_json::array();
   if (!analysedSetups(result).empty())
-    md += chapterFourSection(result, dir);
-  write(md, dir);
+    md += chapterFourSection(result, charts);
+  write(md, dir / "report.md");
+  write(nlohmann::ordered_json{{"charts", charts}}.dump(1) + "\n", dir / "charts.json");
 }
 
 }  // namespace spool_vision

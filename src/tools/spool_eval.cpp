@@ -1,5 +1,6 @@
 // spool_eval: renders labelled sets, runs the detector (and its thesis variants) on them and
-// writes the evaluation report (DESIGN.md §7 bars, thesis chapter 4 analyses) with PNG charts.
+// writes the evaluation report (DESIGN.md §7 bars, thesis chapter 4 analyses) with its charts,
+// drawn by scripts/plot_charts.py (matplotlib) from the charts.json the report writes.
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -11,6 +12,10 @@
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <opencv2/core.hpp>
 
@@ -26,8 +31,8 @@ namespace
 const char* const kUsage =
     "usage: spool_eval --out DIR [--count N] [--negatives N] [--hard N] [--distorted N] [--sizes WxH,...]\n"
     "                  [--repeats N]\n"
-    "                  [--seed S] [--quick] [--config-dir DIR] [--require-bars]\n"
-    "  --out DIR         report folder: report.md and PNG charts (created)\n"
+    "                  [--seed S] [--quick] [--config-dir DIR] [--require-bars] [--no-charts]\n"
+    "  --out DIR         report folder: report.md, charts.json and the PNG charts (created)\n"
     "  --count N         main-set frames per setup (default 400, --quick 60)\n"
     "  --negatives N     negatives-set frames per setup (default half of --count)\n"
     "  --hard N          hard-set frames per setup (default half of --count)\n"
@@ -40,6 +45,7 @@ const char* const kUsage =
     "  --quick           a small sample for a first look\n"
     "  --config-dir DIR  folder with seed.yaml and default.yaml (default: the package's config/)\n"
     "  --require-bars    exit 3 when a default.yaml bar fails at any size\n"
+    "  --no-charts       write charts.json but draw no PNG (scripts/plot_charts.py draws them later)\n"
     "Setups: seed.yaml at 160x120 (the thesis) and default.yaml at each size, each scored on the\n"
     "main + negatives sets, on the hard set and on the distorted set (a C270-like lens). The headline\n"
     "and pose tables go to stdout, progress and the frame counts to stderr. Exit: 0 ran, 1 failed,\n"
@@ -58,6 +64,7 @@ struct Options
   bool quick = false;
   std::string config_dir = SPOOL_VISION_SOURCE_DIR "/config";
   bool require_bars = false;
+  bool charts = true;
 };
 
 // "160x120,640x480" -> sizes, in order, each once.
@@ -88,11 +95,12 @@ Options parseOptions(int argc, char** argv)
   const sv::cli::CommandLine line(
       argc, argv,
       {"--out", "--count", "--negatives", "--hard", "--distorted", "--sizes", "--repeats", "--seed", "--config-dir"},
-      kUsage, false, {"--quick", "--require-bars"});
+      kUsage, false, {"--quick", "--require-bars", "--no-charts"});
   Options o;
   o.out = line.text("--out");
   o.quick = line.has("--quick");
   o.require_bars = line.has("--require-bars");
+  o.charts = !line.has("--no-charts");
   o.count = line.positiveInteger("--count", 100000, 0);
   o.negatives = line.positiveInteger("--negatives", 100000, 0);
   o.hard = line.positiveInteger("--hard", 100000, 0);
@@ -146,6 +154,24 @@ sv::FrameCounts countsAt(const Options& o, cv::Size size)
           std::max(1, o.distorted / divisor)};
 }
 
+// Draws the report's charts: scripts/plot_charts.py (matplotlib) run by Debian's python3 on
+// `dir`/charts.json. Throws std::runtime_error when it cannot run or fails (it says why on stderr).
+void drawCharts(const std::string& dir)
+{
+  std::vector<std::string> args = {SPOOL_VISION_PYTHON, SPOOL_VISION_SOURCE_DIR "/scripts/plot_charts.py",
+                                   (std::filesystem::path(dir) / "charts.json").string()};
+  std::vector<char*> argv;
+  for (std::string& a : args)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  int status = 0;
+  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0 || waitpid(pid, &status, 0) != pid)
+    throw std::runtime_error("cannot run " + args[0] + " " + args[1]);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw std::runtime_error("charts not drawn (report.md and charts.json are written): " + args[1] + " failed");
+}
+
 int run(int argc, char** argv)
 {
   const Options options = parseOptions(argc, argv);
@@ -179,6 +205,8 @@ int run(int argc, char** argv)
   const auto start = std::chrono::steady_clock::now();
   const sv::EvaluationResult result = sv::runEvaluation(config, showProgress);
   sv::writeReport(result, options.out);
+  if (options.charts)
+    drawCharts(options.out);
   std::cout << sv::headlineTable(result) << "\n" << sv::poseTable(result);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "spool_eval: done in " << static_cast<int>(seconds)

@@ -2,13 +2,14 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
+#include <nlohmann/json.hpp>
 
 #include "spool_vision/eval/evaluation.h"
 #include "spool_vision/io/config_io.h"
@@ -874,10 +875,45 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
                               "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization",
                               "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r"})
     EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
+  // The charts' data: one chart per PNG the report shows, its points the tables' numbers.
+  const nlohmann::json charts = nlohmann::json::parse(std::ifstream(dir / "charts.json"))["charts"];
+  std::map<std::string, nlohmann::json> by_file;
+  for (const nlohmann::json& chart : charts)
+    by_file[chart["file"]] = chart;
+  ASSERT_EQ(by_file.size(), 8u);
   for (const char* png : {"filters", "binarization", "morphology", "cht_mcht", "lamps", "distance", "yaw", "tx_r"})
   {
-    const cv::Mat chart = cv::imread((dir / (std::string(png) + ".png")).string());
-    EXPECT_FALSE(chart.empty()) << png;
+    ASSERT_EQ(by_file.count(std::string(png) + ".png"), 1u) << png;
     EXPECT_NE(md.str().find(std::string("(") + png + ".png)"), std::string::npos) << png;
   }
+  const nlohmann::json& filters = by_file["filters.png"];
+  EXPECT_EQ(filters["kind"], "bar");
+  ASSERT_EQ(filters["categories"].size(), r.analyses[0].rows.size());
+  ASSERT_EQ(filters["groups"].size(), 3u);  // flange found, hole found, false holes of the one analysed setup
+  EXPECT_EQ(filters["groups"][0]["label"], "flange found, seed.yaml @ 160x120");
+  EXPECT_NEAR(filters["groups"][0]["values"][0].get<double>(),
+              100.0 * r.analyses[0].rows[0].per_setup[0].flange_found.value(), 1e-9);
+  const nlohmann::json& distance = by_file["distance.png"];
+  EXPECT_EQ(distance["kind"], "line");
+  ASSERT_EQ(distance["series"].size(), 1u);
+  ASSERT_EQ(distance["series"][0]["x"].size(), r.distance_sweep.size());
+  for (size_t k = 0; k < r.distance_sweep.size(); ++k)
+  {
+    const sv::PosePoint& p = r.distance_sweep[k];
+    const double error = 100.0 * (p.per_setup[0].distance - p.distance) / p.distance;
+    EXPECT_NEAR(distance["series"][0]["x"][k].get<double>(), 100.0 * p.distance, 1e-9);
+    if (std::isfinite(error))
+      EXPECT_NEAR(distance["series"][0]["y"][k].get<double>(), error, 1e-9) << k;
+    else
+      EXPECT_TRUE(distance["series"][0]["y"][k].is_null()) << k;  // not measured: a gap
+  }
+  // A series per distance of the sweep (the depth changes with the yaw; the series does not).
+  const nlohmann::json& yaw_series = by_file["yaw.png"]["series"];
+  ASSERT_EQ(yaw_series.size(), 3u);
+  EXPECT_EQ(yaw_series[0]["label"], "seed.yaml @ 160x120, 100 cm");
+  for (const nlohmann::json& series : yaw_series)
+    EXPECT_EQ(series["x"].size(), 9u) << series["label"];  // -20 to 20 deg in steps of 5
+  EXPECT_EQ(
+      by_file["tx_r.png"]["levels"][0]["y"].get<double>(),
+      100.0 * 0.5 * (small.setups[0].params.geometry.hole_diameter - small.setups[0].params.geometry.puller_diameter));
 }

@@ -1,6 +1,6 @@
-// spool_calibrate and spool_render checked as a user runs them: a process, its output, its
-// exit code and the files it writes. The calibration images come from the renderer, so the
-// focal length they were taken with is known exactly.
+// spool_calibrate, spool_render, spool_eval and scripts/plot_charts.py checked as a user runs
+// them: a process, its output, its exit code and the files it writes. The calibration images come
+// from the renderer, so the focal length they were taken with is known exactly.
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -34,6 +34,16 @@ CliRun spoolCalibrate(const std::string& args)
 CliRun spoolRender(const std::string& args)
 {
   return sv::test::runCommand(std::string(SPOOL_RENDER_BIN) + " " + args);
+}
+
+CliRun spoolEval(const std::string& args)
+{
+  return sv::test::runCommand(std::string(SPOOL_EVAL_BIN) + " " + args);
+}
+
+CliRun plotCharts(const std::string& args)
+{
+  return sv::test::runCommand(std::string(SPOOL_PYTHON) + " " + SPOOL_PLOT_CHARTS + " " + args);
 }
 
 bool has(const std::string& text, const std::string& fragment)
@@ -255,4 +265,100 @@ TEST(SpoolRenderCli, UnwritableOutputIsAClearError)
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_TRUE(has(run.errors, "spool_render: ")) << run.errors;
   EXPECT_TRUE(has(run.errors, (file / "out").string())) << run.errors;
+}
+
+// A chart PNG as the report shows it: 900x540 and not blank.
+void expectDrawnChart(const fs::path& png)
+{
+  const cv::Mat image = cv::imread(png.string(), cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(image.empty()) << png;
+  EXPECT_EQ(image.size(), cv::Size(900, 540)) << png;
+  double low = 0.0;
+  double high = 0.0;
+  cv::minMaxLoc(image, &low, &high);
+  EXPECT_GT(high - low, 100.0) << png;
+}
+
+TEST(PlotChartsCli, DrawsLineAndBarChartsWithGaps)
+{
+  const fs::path dir = freshDir("plot_charts");
+  std::ofstream(dir / "charts.json") << R"({"charts": [
+    {"file": "line.png", "kind": "line", "title": "t", "x_label": "x", "y_label": "y",
+     "series": [{"label": "a", "x": [1, 2, 3], "y": [0.5, null, 1.5], "line": true},
+                {"label": "b", "x": [1, 2], "y": [1, 2], "line": false}],
+     "levels": [{"label": "+1%", "y": 1.0}]},
+    {"file": "bar.png", "kind": "bar", "title": "t", "y_label": "%", "y_max": 100,
+     "categories": ["p", "q"], "groups": [{"label": "g", "values": [40, null]}]}]})";
+  const CliRun run = plotCharts((dir / "charts.json").string());
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  expectDrawnChart(dir / "line.png");
+  expectDrawnChart(dir / "bar.png");
+}
+
+TEST(PlotChartsCli, BadChartsFilesExitTwoNamingTheChartAndKey)
+{
+  const fs::path dir = freshDir("plot_charts_bad");
+  struct Case
+  {
+    std::string json;
+    std::string message;
+  };
+  const std::string line = R"("kind": "line", "title": "t", "x_label": "x", "y_label": "y", "levels": [])";
+  const std::vector<Case> cases = {
+      {"{", "cannot read"},
+      {R"({"plots": []})", R"(expected {"charts": [...]})"},
+      {R"({"charts": [{"file": "a.png", )" + line + "}]}", "chart 1 (a.png): missing 'series'"},
+      {R"({"charts": [{"file": "a.png", "kind": "pie"}]})", "chart 1 (a.png): 'kind' is 'pie', not one of bar, line"},
+      {R"({"charts": [{"file": "../a.png", "kind": "line"}]})", "'file' must be a plain PNG name"},
+      {R"({"charts": [{"file": "a.png", "series": [{"label": "s", "x": [1], "y": ["one"], "line": true}], )" + line +
+           "}]}",
+       "'y' holds 'one', not a number or null"},
+      {R"({"charts": [{"file": "a.png", "series": [{"label": "s", "x": [1, 2], "y": [1], "line": true}], )" + line +
+           "}]}",
+       "series 's' has 2 x and 1 y values"},
+  };
+  for (const Case& c : cases)
+  {
+    std::ofstream(dir / "charts.json") << c.json;
+    const CliRun run = plotCharts((dir / "charts.json").string());
+    EXPECT_EQ(run.exit_code, 2) << c.json;
+    EXPECT_TRUE(has(run.errors, "plot_charts: ")) << run.errors;
+    EXPECT_TRUE(has(run.errors, c.message)) << c.json << "\n" << run.errors;
+  }
+  const CliRun missing = plotCharts((dir / "missing.json").string());
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_TRUE(has(missing.errors, "cannot read " + (dir / "missing.json").string())) << missing.errors;
+  EXPECT_EQ(plotCharts("").exit_code, 2);
+}
+
+// A small evaluation end to end: the report, the charts' data and every chart it shows drawn.
+TEST(SpoolEvalCli, WritesTheReportAndDrawsEveryChartItShows)
+{
+  const fs::path dir = freshDir("eval_cli") / "report";
+  const CliRun run = spoolEval("--out " + dir.string() + " --count 2 --sizes 160x120 --repeats 1");
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  std::stringstream md;
+  md << std::ifstream(dir / "report.md").rdbuf();
+  const nlohmann::json charts = nlohmann::json::parse(std::ifstream(dir / "charts.json"))["charts"];
+  ASSERT_EQ(charts.size(), 8u);  // five variant analyses, distance, yaw, tx_r
+  for (const nlohmann::json& chart : charts)
+  {
+    const std::string file = chart["file"];
+    EXPECT_TRUE(has(md.str(), "(" + file + ")")) << file;
+    expectDrawnChart(dir / file);
+  }
+}
+
+TEST(SpoolEvalCli, BadOptionsExitTwoNamingTheOption)
+{
+  const std::string out = "--out " + ::testing::TempDir() + "eval_bad";
+  for (const auto& [args, message] : std::vector<std::pair<std::string, std::string>>{
+           {out + " --charts", "unknown option '--charts'"},
+           {"--count 2", "--out is required"},
+           {out + " --sizes 160x", "--sizes: '160x' is not WIDTHxHEIGHT (32-4096 each)"}})
+  {
+    const CliRun run = spoolEval(args);
+    EXPECT_EQ(run.exit_code, 2) << args;
+    EXPECT_TRUE(has(run.errors, "spool_eval: " + message)) << args << "\n" << run.errors;
+  }
 }

@@ -375,8 +375,9 @@ struct PoseMeasurement
 
 struct PosePoint
 {
-  double distance = 0.0;  ///< m, true
+  double distance = 0.0;  ///< m, true (depth)
   double yaw = 0.0;       ///< rad, true
+  double range = 0.0;     ///< m, the sweep's camera-to-hole distance it was rendered at (its chart series)
   std::vector<PoseMeasurement> per_setup;
 };
 
@@ -446,7 +447,9 @@ std::string poseTable(const EvaluationResult& result);
 /// True when every bar that applies to setup `index` passes on every group (headline and pose).
 bool barsPass(const EvaluationResult& result, size_t index);
 
-/// Writes `dir`/report.md and its PNG charts (creates `dir`). Throws std::runtime_error.
+/// Writes `dir`/report.md and `dir`/charts.json (creates `dir`): the data of each chart report.md
+/// shows, which scripts/plot_charts.py draws as the PNG it names (spool_eval runs it). Throws
+/// std::runtime_error.
 void writeReport(const EvaluationResult& result, const std::string& dir);
 
 }  // namespace spool_vision
