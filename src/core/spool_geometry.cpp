@@ -38,6 +38,57 @@ void toPose(const Eigen::Vector3d& ray, const Eigen::Vector3d& p, cv::Point3d& p
   position = {c.x(), c.y(), c.z()};
   axis = {n.x(), n.y(), n.z()};
 }
+
+// fitRimPose()'s circle at one Gauss-Newton pass: centre along `ray` at the unknowns `p` (depth,
+// the normal's slopes), `radius` (m), and the band (px) about it within which a point counts.
+struct RimCircle
+{
+  Eigen::Vector3d ray;
+  Eigen::Vector3d p;
+  double radius;
+  double band;
+};
+
+// Adds each rim point's residual and its derivatives by p to the normal equations jtj, jtr and
+// returns how many points took part (every `stride`-th within the band). In closed form (a numeric
+// Jacobian took four evaluations per point, and this fit is a tenth of a frame at 160x120): with
+// the circle's centre c = d ray and its normal along m = (a, b, 1), the point's ray r meets the
+// plane at x = t r, t = (m.c) / (m.r) = d (m.ray) / (m.r); u = x - c; the residual, in px at the
+// circle's scale s = fy / c_z, is e = (|u| - R) s. Then du/dd = u / d, so de/dd = s R / d, and
+// dt/da = d (ray_x (m.r) - (m.ray) r_x) / (m.r)^2 (b alike with y), de/da = s (dt/da) (u.r) / |u|.
+int addRimNormalEquations(const std::vector<cv::Point2f>& rim, std::size_t stride, const CameraIntrinsics& camera,
+                          const RimCircle& circle, Eigen::Matrix3d& jtj, Eigen::Vector3d& jtr)
+{
+  const Eigen::Vector3d& ray = circle.ray;
+  const double radius = circle.radius;
+  const double depth = circle.p.x();
+  const Eigen::Vector3d m(circle.p.y(), circle.p.z(), 1.0);
+  const Eigen::Vector3d c = depth * ray;
+  const double m_ray = m.dot(ray);
+  const double scale = camera.fy / c.z();
+  int used = 0;
+  for (std::size_t i = 0; i < rim.size(); i += stride)
+  {
+    const Eigen::Vector3d r((rim[i].x - camera.cx) / camera.fx, (rim[i].y - camera.cy) / camera.fy, 1.0);
+    const double m_r = m.dot(r);
+    if (!(std::abs(m_r) > 1e-9))
+      continue;
+    const double t = depth * m_ray / m_r;
+    const Eigen::Vector3d u = t * r - c;
+    const double length = u.norm();
+    const double e = (length - radius) * scale;
+    if (!(std::abs(e) <= circle.band) || !(length > 0.0))
+      continue;
+    const double along = scale * u.dot(r) / length;
+    const double dt = depth / (m_r * m_r);
+    const Eigen::Vector3d j(scale * radius / depth, along * dt * (ray.x() * m_r - m_ray * r.x()),
+                            along * dt * (ray.y() * m_r - m_ray * r.y()));
+    jtj += j * j.transpose();
+    jtr += j * e;
+    ++used;
+  }
+  return used;
+}
 }  // namespace
 
 SpoolGeometry::SpoolGeometry(const GeometryParams& params, const CameraIntrinsics& camera)
@@ -110,47 +161,16 @@ bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Po
   Eigen::Vector3d p(position.z / ray.z(), axis[0] / axis[2], axis[1] / axis[2]);
   // At most ~400 points: the fit has three unknowns, and its cost stays a fraction of the Hough's.
   const std::size_t stride = std::max<std::size_t>(1, rim.size() / 400);
-  // Each point's residual and its derivatives by p, in closed form (a numeric Jacobian took four
-  // evaluations per point, and this fit is a tenth of a frame at 160x120). With the circle's centre
-  // c = d ray and its normal along m = (a, b, 1), the point's ray r meets the plane at x = t r,
-  // t = (m.c) / (m.r) = d (m.ray) / (m.r); u = x - c; the residual, in px at the circle's scale
-  // s = fy / c_z, is e = (|u| - R) s. Then du/dd = u / d, so de/dd = s R / d, and
-  // dt/da = d (ray_x (m.r) - (m.ray) r_x) / (m.r)^2 (b alike with y), de/da = s (dt/da) (u.r) / |u|.
   const double band = std::max(1.5, 0.01 * camera_.fy * radius / p.x());
   constexpr int kIterations = 6;
   for (int iteration = 0; iteration < kIterations; ++iteration)
   {
     Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
     Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
-    int used = 0;
-    const double depth = p.x();
-    const Eigen::Vector3d m(p.y(), p.z(), 1.0);
-    const Eigen::Vector3d c = depth * ray;
-    const double m_ray = m.dot(ray);
-    const double scale = camera_.fy / c.z();
-    for (std::size_t i = 0; i < rim.size(); i += stride)
-    {
-      const Eigen::Vector3d r((rim[i].x - camera_.cx) / camera_.fx, (rim[i].y - camera_.cy) / camera_.fy, 1.0);
-      const double m_r = m.dot(r);
-      if (!(std::abs(m_r) > 1e-9))
-        continue;
-      const double t = depth * m_ray / m_r;
-      const Eigen::Vector3d u = t * r - c;
-      const double length = u.norm();
-      const double e = (length - radius) * scale;
-      // The first pass takes a wider band: the start (rimPose()) may be a few px off the rim.
-      if (!(std::abs(e) <= (iteration == 0 ? 3.0 : 1.0) * band) || !(length > 0.0))
-        continue;
-      const double along = scale * u.dot(r) / length;
-      const double dt = depth / (m_r * m_r);
-      const Eigen::Vector3d j(scale * radius / depth, along * dt * (ray.x() * m_r - m_ray * r.x()),
-                              along * dt * (ray.y() * m_r - m_ray * r.y()));
-      jtj += j * j.transpose();
-      jtr += j * e;
-      ++used;
-    }
+    // The first pass takes a wider band: the start (rimPose()) may be a few px off the rim.
+    const RimCircle circle{ray, p, radius, (iteration == 0 ? 3.0 : 1.0) * band};
     constexpr int kMinPoints = 30;
-    if (used < kMinPoints)
+    if (addRimNormalEquations(rim, stride, camera_, circle, jtj, jtr) < kMinPoints)
       return false;
     const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
     if (!step.allFinite())

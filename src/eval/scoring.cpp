@@ -97,6 +97,28 @@ bool holeMatches(const ProjectedCircle& truth, const Circle& found, const HoleTo
                        tolerance.radius_fraction);
 }
 
+namespace
+{
+// The errors of a correct flange against the spool it is judged on; the hole's and the pose's
+// only on the slot's spool, whose hole and pose the truth holds.
+void measureErrors(const GroundTruth& truth, const SpoolTruth& judged, const SpoolDetection& detection, FrameScore& s)
+{
+  s.distance_error = (detection.distance - judged.distance) / judged.distance;
+  s.yaw_error = detection.yaw - judged.yaw;
+  if (!judged.in_slot)
+    return;
+  s.hole_correct = s.hole_reported && holeMatches(*truth.hole, detection.hole, holeTolerance(truth.camera));
+  if (s.hole_reported)
+  {
+    s.hole_centre_error = std::hypot(detection.hole.x - truth.hole->x, detection.hole.y - truth.hole->y);
+    s.hole_radius_error = std::abs(detection.hole.r - truth.hole->r);
+  }
+  s.true_depth = truth.distance;
+  s.lateral_error = detection.lateral_offset - truth.lateral_offset;
+  s.axis_angle_error = detection.axis_angle - truth.axis_angle;
+}
+}  // namespace
+
 FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
 {
   FrameScore s;
@@ -140,24 +162,8 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
   s.hole_dark_eligible = bore_in_view && !truth.bore_visible;
   s.correct = s.detected && flangeMatches(judged.flange, detection.flange);
   s.on_other_spool &= !s.correct;
-  s.hole_correct = s.correct && s.hole_reported && judged.in_slot &&
-                   holeMatches(*truth.hole, detection.hole, holeTolerance(truth.camera));
-  if (s.correct && s.hole_reported && judged.in_slot)
-  {
-    s.hole_centre_error = std::hypot(detection.hole.x - truth.hole->x, detection.hole.y - truth.hole->y);
-    s.hole_radius_error = std::abs(detection.hole.r - truth.hole->r);
-  }
   if (s.correct)
-  {
-    s.distance_error = (detection.distance - judged.distance) / judged.distance;
-    s.yaw_error = detection.yaw - judged.yaw;
-  }
-  if (s.correct && judged.in_slot)
-  {
-    s.true_depth = truth.distance;
-    s.lateral_error = detection.lateral_offset - truth.lateral_offset;
-    s.axis_angle_error = detection.axis_angle - truth.axis_angle;
-  }
+    measureErrors(truth, judged, detection, s);
   return s;
 }
 

@@ -501,16 +501,7 @@ public:
     switch (hit.material)
     {
       case Material::kWall:
-      {
-        const double pattern = 1.0 + 0.05 * std::sin(7.1 * pt.x() + 0.3) * std::sin(5.3 * pt.y());
-        double shadow = 1.0;
-        if (pt.y() < geometry_.lower_board_bottom)
-          shadow = 0.45;  // inside the compartment below: the board shades it
-        else if (pt.y() > geometry_.upper_board_bottom)
-          shadow = 0.6;
-        sub = shadow < 1.0 ? 1 : 0;
-        return toVec(p_.wall_colour) * pattern * shadow * diffuse(hit.normal);
-      }
+        return wallRadiance(pt, hit, sub);
       case Material::kBoard:
       {
         const double grain = 1.0 + 0.08 * std::sin(40.0 * pt.x() + 3.0 * std::sin(13.0 * pt.z()));
@@ -522,20 +513,7 @@ public:
         return Vec3(0.18, 0.42, 0.75) * diffuse(hit.normal) +
                Vec3(0.35, 0.55, 0.8) * specular(hit.normal, view, 0.35, 5);
       case Material::kBore:
-      {
-        if (p_.bore_falloff > 0.0)
-        {
-          // A 3.6 cm bore 20 cm long is lit only through its openings: the lamps' ambient light
-          // at the front, the lit wall at the back; both die out within a few centimetres.
-          const double front = std::exp(-(pt.z() - hit.z_front) / p_.bore_falloff);
-          const double back = std::exp(-(hit.z_back - pt.z()) / p_.bore_falloff);
-          return Vec3::Constant(p_.bore_reflectance * (front_light_ * front + back_light_ * back));
-        }
-        // Light enters from the back opening, so the wall darkens towards the front rim but
-        // stays lighter than the flange face.
-        const double depth = std::clamp((pt.z() - hit.z_front) / p_.bore_length, 0.0, 1.0);
-        return Vec3::Constant(p_.bore_reflectance * (0.7 + 0.6 * depth) * light_scale_);
-      }
+        return boreRadiance(pt, hit);
       case Material::kClutter:
         return geometry_.clutter_colours[hit.owner] * diffuse(hit.normal);
       case Material::kRod:
@@ -549,27 +527,60 @@ public:
       case Material::kCardboard:
         return Vec3(0.35, 0.5, 0.6) * diffuse(hit.normal);
       case Material::kMetal:
-      {
-        // Lid with a dark recessed groove and a shiny seamed rim.
-        const double r = std::hypot(pt.x() - geometry_.object_cx, pt.y() - geometry_.object_cy) / p_.object_radius;
-        double albedo = 0.55;
-        if (r > 0.8 && r < 0.86)
-        {
-          albedo = 0.35;
-          sub = 1;
-        }
-        else if (r >= 0.9)
-        {
-          albedo = 0.7;
-          sub = 2;
-        }
-        return Vec3::Constant(albedo) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.3, 4));
-      }
+        return lidRadiance(pt, view, hit, sub);
     }
     return Vec3::Zero();
   }
 
 private:
+  // The wall behind the shelf: a faint pattern, shaded under and over the boards.
+  Vec3 wallRadiance(const Vec3& pt, const Hit& hit, int& sub) const
+  {
+    const double pattern = 1.0 + 0.05 * std::sin(7.1 * pt.x() + 0.3) * std::sin(5.3 * pt.y());
+    double shadow = 1.0;
+    if (pt.y() < geometry_.lower_board_bottom)
+      shadow = 0.45;  // inside the compartment below: the board shades it
+    else if (pt.y() > geometry_.upper_board_bottom)
+      shadow = 0.6;
+    sub = shadow < 1.0 ? 1 : 0;
+    return toVec(p_.wall_colour) * pattern * shadow * diffuse(hit.normal);
+  }
+
+  // The bore's wall, lit through its openings.
+  Vec3 boreRadiance(const Vec3& pt, const Hit& hit) const
+  {
+    if (p_.bore_falloff > 0.0)
+    {
+      // A 3.6 cm bore 20 cm long is lit only through its openings: the lamps' ambient light
+      // at the front, the lit wall at the back; both die out within a few centimetres.
+      const double front = std::exp(-(pt.z() - hit.z_front) / p_.bore_falloff);
+      const double back = std::exp(-(hit.z_back - pt.z()) / p_.bore_falloff);
+      return Vec3::Constant(p_.bore_reflectance * (front_light_ * front + back_light_ * back));
+    }
+    // Light enters from the back opening, so the wall darkens towards the front rim but
+    // stays lighter than the flange face.
+    const double depth = std::clamp((pt.z() - hit.z_front) / p_.bore_length, 0.0, 1.0);
+    return Vec3::Constant(p_.bore_reflectance * (0.7 + 0.6 * depth) * light_scale_);
+  }
+
+  // A can's lid: a dark recessed groove and a shiny seamed rim.
+  Vec3 lidRadiance(const Vec3& pt, const Vec3& view, const Hit& hit, int& sub) const
+  {
+    const double r = std::hypot(pt.x() - geometry_.object_cx, pt.y() - geometry_.object_cy) / p_.object_radius;
+    double albedo = 0.55;
+    if (r > 0.8 && r < 0.86)
+    {
+      albedo = 0.35;
+      sub = 1;
+    }
+    else if (r >= 0.9)
+    {
+      albedo = 0.7;
+      sub = 2;
+    }
+    return Vec3::Constant(albedo) * diffuse(hit.normal) + Vec3::Constant(specular(hit.normal, view, 0.3, 4));
+  }
+
   void setupLights()
   {
     const std::array<bool, 3>& on = lampSpec(p_.lamps).on;
@@ -1310,19 +1321,22 @@ RenderedFrame SpoolRenderer::render(const SceneParams& scene, const CameraPose& 
   return frame;
 }
 
-SceneParams randomScene(SceneKind kind, std::uint64_t seed)
+namespace
 {
-  cv::RNG rng(mixSeed(seed, 2));
-  SceneParams s;
-  s.kind = kind;
-  s.seed = seed;
+// The lamps over the shelf (thesis 4.2.5) and the exposure.
+void drawLight(cv::RNG& rng, SceneParams& s)
+{
   s.lamps = static_cast<LampCondition>(rng.uniform(0, 4));
   double lo = 0.0;
   double hi = 0.0;
   lampRange(s.lamps, lo, hi);
   s.illuminance = rng.uniform(lo, hi);
   s.exposure = rng.uniform(0.85, 1.15);
+}
 
+// The spool's make (bore, flange, winding, faces) and the spools beside it.
+void drawSpools(cv::RNG& rng, SceneParams& s)
+{
   s.bore_length = rng.uniform(0.18, 0.22);
   s.flange_thickness = rng.uniform(0.008, 0.015);
   s.winding_diameter = rng.uniform(0.22, 0.32);
@@ -1332,15 +1346,19 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed)
   s.label = rng.uniform(0.0, 1.0) < 0.4;
   s.label_angle = rng.uniform(0.0, 2.0 * M_PI);
   s.label_radius = rng.uniform(0.085, 0.12);
-
   for (int side : {-1, 1})
   {
     const int count = rng.uniform(0, 3);
     for (int i = 0; i < count; ++i)
       s.neighbours.push_back({side, rng.uniform(0.01, 0.06), rng.uniform(-0.02, 0.02)});
   }
+}
 
-  switch (kind)
+// The look-alike in a negative scene: its size by kind, and its colour and place (drawn for every
+// kind, so that the draws after them do not depend on the kind).
+void drawLookAlike(cv::RNG& rng, SceneParams& s)
+{
+  switch (s.kind)
   {
     case SceneKind::kPlate:
       s.object_radius = rng.uniform(0.09, 0.15);
@@ -1360,19 +1378,43 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed)
   s.object_colour = cv::Vec3d(grey * rng.uniform(0.6, 1.0), grey * rng.uniform(0.6, 1.0), grey * rng.uniform(0.6, 1.0));
   s.object_offset_x = rng.uniform(-0.08, 0.08);
   s.object_depth = rng.uniform(0.0, 0.1);
+}
 
+// The shelf: the wall behind the slot and the boards above and below.
+void drawShelf(cv::RNG& rng, SceneParams& s)
+{
   s.wall_gap = rng.uniform(0.03, 0.2);
   s.board_front = rng.uniform(-0.05, 0.0);
   s.top_board_clearance = rng.uniform(0.04, 0.15);
   const double wall = rng.uniform(0.6, 0.85);
   s.wall_colour = cv::Vec3d(wall * rng.uniform(0.9, 1.0), wall * rng.uniform(0.95, 1.0), wall);
+}
 
+// The main set's camera: blur, noise, MJPEG, vignetting, the sRGB-like tone curve.
+void drawImaging(cv::RNG& rng, SceneParams& s)
+{
   s.blur_sigma = rng.uniform(0.3, 0.9);
   s.noise_sigma = rng.uniform(1.0, 4.0);
   s.jpeg_quality = rng.uniform(0.0, 1.0) < 0.7 ? rng.uniform(70, 96) : 0;
   s.vignetting = rng.uniform(0.05, 0.25);
   // A webcam encodes light about as sRGB does (drawn last: the draws above keep their values).
   s.gamma = rng.uniform(0.4, 0.5);
+}
+}  // namespace
+
+// The draws keep one order (light, spools, look-alike, shelf, imaging): a seed gives the scene it
+// always gave.
+SceneParams randomScene(SceneKind kind, std::uint64_t seed)
+{
+  cv::RNG rng(mixSeed(seed, 2));
+  SceneParams s;
+  s.kind = kind;
+  s.seed = seed;
+  drawLight(rng, s);
+  drawSpools(rng, s);
+  drawLookAlike(rng, s);
+  drawShelf(rng, s);
+  drawImaging(rng, s);
   return s;
 }
 
