@@ -32,6 +32,9 @@ public:
 
   /// The stages one at a time (each `out` may alias nothing else).
   static void toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray);
+  /// `image` of `format` as 8-bit BGR in `bgr` (always a copy, for drawing on; mono16 scaled as
+  /// toGray() scales it). Throws std::invalid_argument as process() does.
+  static void toBgr(const cv::Mat& image, PixelFormat format, cv::Mat& bgr);
   void filter(const cv::Mat& gray, cv::Mat& out);
   void binarize(const cv::Mat& gray, cv::Mat& out) const;
   void morphology(const cv::Mat& binary, cv::Mat& out) const;

@@ -87,37 +87,8 @@ void drawOverlay(cv::Mat& bgr, const SpoolDetection& detection)
 
 cv::Mat renderOverlay(const cv::Mat& image, PixelFormat format, const SpoolDetection& detection)
 {
-  if (image.empty())
-    throw std::invalid_argument("overlay: empty image");
-  if (image.type() != matTypeOf(format))
-    throw std::invalid_argument("overlay: image type does not match its pixel format");
-
   cv::Mat bgr;
-  switch (format)
-  {
-    case PixelFormat::kMono8:
-      cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
-      break;
-    case PixelFormat::kMono16:
-    {
-      cv::Mat mono8;
-      Preprocessor::toGray(image, format, mono8);  // the detector's own scaling: one path
-      cv::cvtColor(mono8, bgr, cv::COLOR_GRAY2BGR);
-      break;
-    }
-    case PixelFormat::kBgr8:
-      bgr = image.clone();
-      break;
-    case PixelFormat::kRgb8:
-      cv::cvtColor(image, bgr, cv::COLOR_RGB2BGR);
-      break;
-    case PixelFormat::kBgra8:
-      cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
-      break;
-    case PixelFormat::kRgba8:
-      cv::cvtColor(image, bgr, cv::COLOR_RGBA2BGR);
-      break;
-  }
+  Preprocessor::toBgr(image, format, bgr);  // the detector's own conversions: one path
   drawOverlay(bgr, detection);
   return bgr;
 }

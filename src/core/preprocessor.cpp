@@ -117,7 +117,9 @@ void Preprocessor::gaussian(const cv::Mat& gray, cv::Mat& out)
   separableBlur(gray, kernel_.data() + radius, radius, line_.data(), rows_, acc_.data(), out);
 }
 
-void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray)
+namespace
+{
+void checkFrame(const cv::Mat& image, PixelFormat format)
 {
   if (image.empty())
     throw std::invalid_argument("empty image");
@@ -125,29 +127,62 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
     throw std::invalid_argument("image type " + cv::typeToString(image.type()) +
                                 " does not match its pixel format (expected " + cv::typeToString(matTypeOf(format)) +
                                 ")");
-  gray.create(image.size(), CV_8U);
+}
+
+// cv::cvtColor's codes from `format` to gray (ITU-R BT.601 luma) and to BGR; -1 where no
+// cv::cvtColor does it (8-bit grey and BGR are copied, 16-bit grey is scaled).
+struct ColourCodes
+{
+  int to_gray;
+  int to_bgr;
+};
+
+ColourCodes colourCodes(PixelFormat format)
+{
   switch (format)
   {
     case PixelFormat::kMono8:
-      image.copyTo(gray);
-      break;
+      return {-1, cv::COLOR_GRAY2BGR};
     case PixelFormat::kMono16:
-      image.convertTo(gray, CV_8U, 1.0 / 257.0);
-      break;
-    // ITU-R BT.601 luma.
+      return {-1, -1};
     case PixelFormat::kBgr8:
-      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-      break;
+      return {cv::COLOR_BGR2GRAY, -1};
     case PixelFormat::kRgb8:
-      cv::cvtColor(image, gray, cv::COLOR_RGB2GRAY);
-      break;
+      return {cv::COLOR_RGB2GRAY, cv::COLOR_RGB2BGR};
     case PixelFormat::kBgra8:
-      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-      break;
+      return {cv::COLOR_BGRA2GRAY, cv::COLOR_BGRA2BGR};
     case PixelFormat::kRgba8:
-      cv::cvtColor(image, gray, cv::COLOR_RGBA2GRAY);
-      break;
+      return {cv::COLOR_RGBA2GRAY, cv::COLOR_RGBA2BGR};
   }
+  return {-1, -1};
+}
+}  // namespace
+
+void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray)
+{
+  checkFrame(image, format);
+  gray.create(image.size(), CV_8U);
+  if (format == PixelFormat::kMono16)
+    image.convertTo(gray, CV_8U, 1.0 / 257.0);  // 65535 -> 255
+  else if (const int code = colourCodes(format).to_gray; code >= 0)
+    cv::cvtColor(image, gray, code);
+  else
+    image.copyTo(gray);
+}
+
+void Preprocessor::toBgr(const cv::Mat& image, PixelFormat format, cv::Mat& bgr)
+{
+  checkFrame(image, format);
+  if (format == PixelFormat::kMono16)
+  {
+    cv::Mat mono8;
+    toGray(image, format, mono8);
+    cv::cvtColor(mono8, bgr, cv::COLOR_GRAY2BGR);
+  }
+  else if (const int code = colourCodes(format).to_bgr; code >= 0)
+    cv::cvtColor(image, bgr, code);
+  else
+    image.copyTo(bgr);
 }
 
 void Preprocessor::filter(const cv::Mat& gray, cv::Mat& out)

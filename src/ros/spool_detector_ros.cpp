@@ -46,21 +46,14 @@ bool endsWith(const std::string& text, const std::string& suffix)
   return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+// The encodings the core reads as they are (cv_bridge shares their buffer).
 std::optional<PixelFormat> pixelFormatOf(const std::string& encoding)
 {
-  if (encoding == enc::MONO8)
-    return PixelFormat::kMono8;
-  if (encoding == enc::MONO16)
-    return PixelFormat::kMono16;
-  if (encoding == enc::BGR8)
-    return PixelFormat::kBgr8;
-  if (encoding == enc::RGB8)
-    return PixelFormat::kRgb8;
-  if (encoding == enc::BGRA8)
-    return PixelFormat::kBgra8;
-  if (encoding == enc::RGBA8)
-    return PixelFormat::kRgba8;
-  return std::nullopt;
+  static const std::map<std::string, PixelFormat> kDirect = {
+      {enc::MONO8, PixelFormat::kMono8}, {enc::MONO16, PixelFormat::kMono16}, {enc::BGR8, PixelFormat::kBgr8},
+      {enc::RGB8, PixelFormat::kRgb8},   {enc::BGRA8, PixelFormat::kBgra8},   {enc::RGBA8, PixelFormat::kRgba8}};
+  const auto it = kDirect.find(encoding);
+  return it == kDirect.end() ? std::nullopt : std::optional<PixelFormat>(it->second);
 }
 
 // YUYV as webcam drivers (usb_cam, v4l2_camera) publish it; Debian's cv_bridge does not know the
