@@ -1,6 +1,8 @@
+#include <array>
 #include <cmath>
 #include <random>
 #include <string>
+#include <utility>
 
 #include "spool_vision/eval/evaluation.h"
 
@@ -9,6 +11,12 @@ namespace spool_vision
 namespace
 {
 constexpr double kDeg = M_PI / 180.0;
+
+constexpr std::array<std::pair<FrameSet, const char*>, 5> kSetNames = {{{FrameSet::kMain, "main"},
+                                                                        {FrameSet::kApproach, "approach"},
+                                                                        {FrameSet::kNegatives, "negatives"},
+                                                                        {FrameSet::kHard, "hard"},
+                                                                        {FrameSet::kDistorted, "distorted"}}};
 
 std::uint64_t frameSeed(std::uint64_t seed, int index)
 {
@@ -92,11 +100,27 @@ void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& sc
   const double depth = 1.10 - 0.59 * s;
   pose.lateral = lateral0 * left;
   pose.yaw = heading0 * left;
-  pose.height = 0.06;
+  pose.height = SpoolRenderer::kPullerOffsetY;  // the puller at the axis's height
   pose.pitch = 0.0;
   pose.distance = std::sqrt(depth * depth + pose.height * pose.height + pose.lateral * pose.lateral);
 }
 }  // namespace
+
+const char* toString(FrameSet set)
+{
+  for (const auto& [named, name] : kSetNames)
+    if (named == set)
+      return name;
+  return "?";
+}
+
+std::optional<FrameSet> frameSetNamed(const std::string& name)
+{
+  for (const auto& [set, set_name] : kSetNames)
+    if (name == set_name)
+      return set;
+  return std::nullopt;
+}
 
 CameraPose bearingPose(double distance, double bearing, double heading, double height, double pitch)
 {

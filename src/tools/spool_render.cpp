@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -90,15 +89,10 @@ Options parseOptions(int argc, char** argv)
   o.count = line.positiveInteger("--count", 1000000, 0);
   o.seed = line.seed("--seed", o.seed);
   o.set = line.text("--set", o.set);
-  static const std::map<std::string, sv::FrameSet> kSets = {{"main", sv::FrameSet::kMain},
-                                                            {"approach", sv::FrameSet::kApproach},
-                                                            {"negatives", sv::FrameSet::kNegatives},
-                                                            {"hard", sv::FrameSet::kHard},
-                                                            {"distorted", sv::FrameSet::kDistorted}};
-  const auto set = kSets.find(o.set);
-  if (set == kSets.end())
+  const std::optional<sv::FrameSet> set = sv::frameSetNamed(o.set);
+  if (!set)
     throw UsageError("--set: expected main, approach, negatives, hard or distorted, got '" + o.set + "'");
-  o.frame_set = set->second;
+  o.frame_set = *set;
   if (o.out.empty())
     throw UsageError("--out is required");
   if (o.width == 0 || o.height == 0)
@@ -106,7 +100,7 @@ Options parseOptions(int argc, char** argv)
   if (o.width < 32 || o.height < 32)
     throw UsageError("--width/--height: at least 32 px");
   if (o.count == 0)
-    o.count = o.set == "approach" ? 40 : (o.set == "negatives" ? 100 : 500);
+    o.count = o.frame_set == sv::FrameSet::kApproach ? 40 : (o.frame_set == sv::FrameSet::kNegatives ? 100 : 500);
   return o;
 }
 

@@ -3,6 +3,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -100,6 +101,21 @@ sv::DetectorParams config(const std::string& name)
   return params;
 }
 }  // namespace
+
+TEST(LabelledSets, EachSetHasOneNameThatReadsBack)
+{
+  std::set<std::string> names;
+  for (sv::FrameSet set : {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
+                           sv::FrameSet::kDistorted})
+  {
+    const std::string name = sv::toString(set);
+    names.insert(name);
+    EXPECT_EQ(sv::frameSetNamed(name), set) << name;
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted"}));
+  EXPECT_FALSE(sv::frameSetNamed("Main").has_value());
+  EXPECT_FALSE(sv::frameSetNamed("").has_value());
+}
 
 TEST(Statistics, PercentilesInterpolateBetweenOrderStatisticsAndSkipNaN)
 {

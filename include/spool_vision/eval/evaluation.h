@@ -34,6 +34,11 @@ enum class FrameSet
   kDistorted,
 };
 
+/// The set's name, as spool_render's --set and the truth files' "set" write it ("main", ...).
+const char* toString(FrameSet set);
+/// The set called `name` (toString()'s names), nullopt for any other word.
+std::optional<FrameSet> frameSetNamed(const std::string& name);
+
 /// The lens of the distorted set: plumb_bob (k1, k2, p1, p2, k3), a Logitech C270 class webcam.
 const std::vector<double>& c270Distortion();
 

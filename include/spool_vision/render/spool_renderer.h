@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "spool_vision/detector_params.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision
@@ -47,9 +48,11 @@ struct CameraPose
 {
   double distance = 0.8;  ///< m, optical centre to the flange face centre (Euclidean: the range)
   double lateral = 0.0;   ///< m, camera x relative to the hole axis (positive = camera right)
-  double height = 0.06;   ///< m, camera above the hole axis
-  double yaw = 0.0;       ///< rad, rotation about the vertical axis, positive turns right
-  double pitch = 0.0;     ///< rad, positive tilts the optical axis down
+  /// m, camera above the hole axis; by default the puller's offset below the camera
+  /// (GeometryParams::puller_offset_y), which puts the puller at the axis's height
+  double height = GeometryParams{}.puller_offset_y;
+  double yaw = 0.0;    ///< rad, rotation about the vertical axis, positive turns right
+  double pitch = 0.0;  ///< rad, positive tilts the optical axis down
 };
 
 /// One spool standing beside the target slot.
@@ -92,15 +95,16 @@ struct SceneParams
   double illuminance = 0.0;  ///< lx; 0 = the middle of the condition's range
   double exposure = 1.0;     ///< camera gain multiplier
 
-  // Spool (thesis spool: 35 cm flange, 3.6 cm bore through a ~20 cm hub).
-  double flange_diameter = 0.35;     ///< m
-  double hole_diameter = 0.036;      ///< m
-  double bore_length = 0.20;         ///< m, front flange face to back flange face
-  double flange_thickness = 0.012;   ///< m
-  double winding_diameter = 0.28;    ///< m, outer diameter of the copper winding
-  double flange_reflectance = 0.06;  ///< black plastic
-  double bore_reflectance = 0.2;     ///< bore wall at mid depth (darker towards the front)
-  bool ribs = true;                  ///< concentric moulded ribs on the flange face
+  // Spool (thesis spool: 35 cm flange, 3.6 cm bore through a ~20 cm hub), by default the one the
+  // detector's GeometryParams describe.
+  double flange_diameter = GeometryParams{}.flange_diameter;  ///< m
+  double hole_diameter = GeometryParams{}.hole_diameter;      ///< m
+  double bore_length = GeometryParams{}.hub_length;           ///< m, front flange face to back flange face
+  double flange_thickness = 0.012;                            ///< m
+  double winding_diameter = 0.28;                             ///< m, outer diameter of the copper winding
+  double flange_reflectance = 0.06;                           ///< black plastic
+  double bore_reflectance = 0.2;                              ///< bore wall at mid depth (darker towards the front)
+  bool ribs = true;                                           ///< concentric moulded ribs on the flange face
   /// rad, slope of the ribs' flanks: > 0 shades each rib as a raised ring whose flanks catch or
   /// miss the lamps (bright and dark thin circles); 0 = a faintly brighter flat crest
   double rib_slope = 0.0;
@@ -266,13 +270,13 @@ public:
   /// The ground truth alone (cheap).
   GroundTruth groundTruth(const SceneParams& scene, const CameraPose& pose) const;
 
-  /// Hole height above the floor (m) and the puller offset in the camera frame (m).
+  /// Hole height above the floor (m). The puller (its offset in the camera frame and its diameter,
+  /// m) and the insertion window (depth, m) are the detector's defaults (GeometryParams).
   static constexpr double kHoleHeight = 1.0;
-  static constexpr double kPullerOffsetY = 0.06;
-  static constexpr double kPullerDiameter = 0.031;
-  /// m, the insertion window (depth)
-  static constexpr double kAlignedDistanceMin = 0.5;
-  static constexpr double kAlignedDistanceMax = 0.6;
+  static constexpr double kPullerOffsetY = GeometryParams{}.puller_offset_y;
+  static constexpr double kPullerDiameter = GeometryParams{}.puller_diameter;
+  static constexpr double kAlignedDistanceMin = GeometryParams{}.aligned_distance_min;
+  static constexpr double kAlignedDistanceMax = GeometryParams{}.aligned_distance_max;
 
 private:
   CameraIntrinsics camera_;
