@@ -1066,6 +1066,17 @@ Json xyz(double x, double y, double z)
   return {{"x", x}, {"y", y}, {"z", z}};
 }
 
+// The intrinsics and lens (the size is written beside them, at the top level).
+Json cameraJson(const CameraIntrinsics& c)
+{
+  return {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"distortion", c.distortion}};
+}
+
+Json poseJson(const CameraPose& p)
+{
+  return {{"distance", p.distance}, {"lateral", p.lateral}, {"height", p.height}, {"yaw", p.yaw}, {"pitch", p.pitch}};
+}
+
 Json circleJson(const std::optional<ProjectedCircle>& c)
 {
   if (!c)
@@ -1537,18 +1548,8 @@ nlohmann::ordered_json groundTruthJson(const GroundTruth& t)
           {"illuminance", number(t.illuminance)},
           {"width", t.camera.width},
           {"height", t.camera.height},
-          {"camera",
-           {{"fx", t.camera.fx},
-            {"fy", t.camera.fy},
-            {"cx", t.camera.cx},
-            {"cy", t.camera.cy},
-            {"distortion", t.camera.distortion}}},
-          {"pose",
-           {{"distance", t.pose.distance},
-            {"lateral", t.pose.lateral},
-            {"height", t.pose.height},
-            {"yaw", t.pose.yaw},
-            {"pitch", t.pose.pitch}}},
+          {"camera", cameraJson(t.camera)},
+          {"pose", poseJson(t.pose)},
           {"distance", number(t.distance)},
           {"range", number(t.range)},
           {"position", xyz(t.position.x, t.position.y, t.position.z)},

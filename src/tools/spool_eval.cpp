@@ -54,10 +54,7 @@ const char* const kUsage =
 struct Options
 {
   std::string out;
-  int count = 0;
-  int negatives = 0;
-  int hard = 0;
-  int distorted = 0;
+  sv::FrameCounts counts;  ///< at 160x120 and 640x480 (countsAt() scales the other sizes)
   std::vector<cv::Size> sizes;
   int repeats = 0;
   std::uint64_t seed = 1;
@@ -101,24 +98,17 @@ Options parseOptions(int argc, char** argv)
   o.quick = line.has("--quick");
   o.require_bars = line.has("--require-bars");
   o.charts = !line.has("--no-charts");
-  o.count = line.positiveInteger("--count", 100000, 0);
-  o.negatives = line.positiveInteger("--negatives", 100000, 0);
-  o.hard = line.positiveInteger("--hard", 100000, 0);
-  o.distorted = line.positiveInteger("--distorted", 100000, 0);
+  // The set sizes not given follow --count (main): half as many negatives and hard frames.
+  const int main_frames = line.positiveInteger("--count", 100000, o.quick ? 60 : 400);
+  o.counts = {main_frames, line.positiveInteger("--negatives", 100000, std::max(1, main_frames / 2)),
+              line.positiveInteger("--hard", 100000, std::max(1, main_frames / 2)),
+              line.positiveInteger("--distorted", 100000, main_frames)};
   o.sizes = parseSizes(line.text("--sizes", "160x120,320x240,640x480"));
   o.repeats = line.positiveInteger("--repeats", 100, 0);
   o.seed = line.seed("--seed", o.seed);
   o.config_dir = line.text("--config-dir", o.config_dir);
   if (o.out.empty())
     throw UsageError("--out is required");
-  if (o.count == 0)
-    o.count = o.quick ? 60 : 400;
-  if (o.negatives == 0)
-    o.negatives = std::max(1, o.count / 2);
-  if (o.hard == 0)
-    o.hard = std::max(1, o.count / 2);
-  if (o.distorted == 0)
-    o.distorted = o.count;
   if (o.repeats == 0)
     o.repeats = o.quick ? 1 : 3;
   return o;
@@ -150,8 +140,9 @@ std::string sizeName(cv::Size size)
 sv::FrameCounts countsAt(const Options& o, cv::Size size)
 {
   const int divisor = size == cv::Size(160, 120) || size == cv::Size(640, 480) ? 1 : size.area() <= 640 * 480 ? 2 : 4;
-  return {std::max(1, o.count / divisor), std::max(1, o.negatives / divisor), std::max(1, o.hard / divisor),
-          std::max(1, o.distorted / divisor)};
+  const sv::FrameCounts& c = o.counts;
+  return {std::max(1, c.main / divisor), std::max(1, c.negatives / divisor), std::max(1, c.hard / divisor),
+          std::max(1, c.distorted / divisor)};
 }
 
 // Draws the report's charts: scripts/plot_charts.py (matplotlib) run by Debian's python3 on
