@@ -769,22 +769,13 @@ void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv:
 
 namespace
 {
-// The rim model refine() iterates: an axis-aligned ellipse (a circle seen from a yawed camera is
-// stretched horizontally) and the radius of the circle fitted with it.
-struct RimModel
-{
-  double cx;
-  double cy;
-  double semi_x;
-  double semi_y;
-  double r_fit;
-};
-
-// One least-squares step on moments taken in coordinates centred on `model` and scaled by
-// 1 / mean_r: the circle fit, replaced by the axis-aligned ellipse fit where that stays within
-// 20% of the circle on both axes (a yawed rim; further off, the ellipse has fitted clutter).
-// False when no circle fits.
-bool fitRimModel(const RimMoments& m, double mean_r, RimModel& model)
+// One least-squares step of refine()'s rim model, on moments taken in coordinates centred on
+// `model` and scaled by 1 / mean_r. The model is an axis-aligned ellipse (centre, r_horizontal,
+// r_vertical: a circle seen from a yawed camera is stretched horizontally) and r, the radius of
+// the circle fitted with it: the circle fit, its centre and semi-axes replaced by the ellipse
+// fit's where that stays within 20% of the circle on both axes (a yawed rim; further off, the
+// ellipse has fitted clutter). False when no circle fits.
+bool fitRimModel(const RimMoments& m, double mean_r, Circle& model)
 {
   double ux = 0.0;
   double uy = 0.0;
@@ -792,7 +783,10 @@ bool fitRimModel(const RimMoments& m, double mean_r, RimModel& model)
   if (!m.fitCircle(ux, uy, ur))
     return false;
   const double r_fit = ur * mean_r;
-  RimModel next{model.cx + ux * mean_r, model.cy + uy * mean_r, r_fit, r_fit, r_fit};
+  Circle next = model;
+  next.x = model.x + ux * mean_r;
+  next.y = model.y + uy * mean_r;
+  next.r = next.r_horizontal = next.r_vertical = r_fit;
   double ex = 0.0;
   double ey = 0.0;
   double sx = 0.0;
@@ -800,10 +794,10 @@ bool fitRimModel(const RimMoments& m, double mean_r, RimModel& model)
   if (m.fitEllipse(ex, ey, sx, sy) && std::abs(sx * mean_r / r_fit - 1.0) < 0.2 &&
       std::abs(sy * mean_r / r_fit - 1.0) < 0.2)
   {
-    next.cx = model.cx + ex * mean_r;
-    next.cy = model.cy + ey * mean_r;
-    next.semi_x = sx * mean_r;
-    next.semi_y = sy * mean_r;
+    next.x = model.x + ex * mean_r;
+    next.y = model.y + ey * mean_r;
+    next.r_horizontal = sx * mean_r;
+    next.r_vertical = sy * mean_r;
   }
   model = next;
   return true;
@@ -834,7 +828,8 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
                               Circle& circle)
 {
   const float sign = centreSign(search.polarity);
-  RimModel model{circle.x, circle.y, circle.r, circle.r, circle.r};
+  Circle model = circle;
+  model.r_horizontal = model.r_vertical = circle.r;
   // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught whole;
   // then it narrows onto the fitted model.
   static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
@@ -848,32 +843,28 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   std::size_t count = 0;
   for (int iteration = 0; iteration <= kFits; ++iteration)
   {
-    const double band = std::max(1.5, kBands[iteration] * model.r_fit);
-    count = pickBand(model.cx, model.cy, model.semi_x, model.semi_y, band, sign);
+    const double band = std::max(1.5, kBands[iteration] * model.r);
+    count = pickBand(model.x, model.y, model.r_horizontal, model.r_vertical, band, sign);
     if (iteration == kFits)
       break;
     if (count < 8)
       return false;
     // Rim points in coordinates centred and scaled on the model (for conditioning).
-    const double mean_r = std::sqrt(model.semi_x * model.semi_y);
+    const double mean_r = std::sqrt(model.r_horizontal * model.r_vertical);
     const double scale = 1.0 / mean_r;
     RimMoments m;
     for (std::size_t k = 0; k < count; ++k)
-      m.add((near_[taken_[k]].x - model.cx) * scale, (near_[taken_[k]].y - model.cy) * scale);
+      m.add((near_[taken_[k]].x - model.x) * scale, (near_[taken_[k]].y - model.y) * scale);
     if (!fitRimModel(m, mean_r, model))
       return false;
   }
-  circle.x = model.cx;
-  circle.y = model.cy;
-  circle.r = model.r_fit;
-  circle.r_vertical = model.semi_y;
-  circle.r_horizontal = model.semi_x;
-  circle.visible_fraction = visibleRimFraction(model.cx, model.cy, model.r_fit, image_size);
-  if (circle.visible_fraction < search.min_visible_fraction)
+  model.visible_fraction = visibleRimFraction(model.x, model.y, model.r, image_size);
+  if (model.visible_fraction < search.min_visible_fraction)
     return false;
   // Thin 8-connected edges put about 0.9 points per unit of arc length on a rim.
-  circle.score = std::min(1.0, static_cast<double>(count) / (0.9 * 2.0 * kPi * model.r_fit * circle.visible_fraction));
-  return model.r_fit >= search.r_min * 0.9 && model.r_fit <= search.r_max * 1.1;
+  model.score = std::min(1.0, static_cast<double>(count) / (0.9 * 2.0 * kPi * model.r * model.visible_fraction));
+  circle = model;
+  return model.r >= search.r_min * 0.9 && model.r <= search.r_max * 1.1;
 }
 
 bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
