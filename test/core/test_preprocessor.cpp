@@ -1,3 +1,6 @@
+#include <tuple>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -42,12 +45,35 @@ TEST(Preprocessor, GrayFromEveryPixelFormat)
   EXPECT_EQ(gray.at<uchar>(3, 3), 42);
 }
 
+TEST(Preprocessor, BgrCopyFromEveryPixelFormat)
+{
+  // Red in each colour layout, grey in each grey one: BGR red and BGR grey, in a buffer of its own.
+  const cv::Vec3b red(0, 0, 255);
+  const std::vector<std::tuple<cv::Mat, PixelFormat, cv::Vec3b>> cases = {
+      {cv::Mat(4, 4, CV_8UC3, cv::Scalar(0, 0, 255)), PixelFormat::kBgr8, red},
+      {cv::Mat(4, 4, CV_8UC3, cv::Scalar(255, 0, 0)), PixelFormat::kRgb8, red},
+      {cv::Mat(4, 4, CV_8UC4, cv::Scalar(0, 0, 255, 255)), PixelFormat::kBgra8, red},
+      {cv::Mat(4, 4, CV_8UC4, cv::Scalar(255, 0, 0, 255)), PixelFormat::kRgba8, red},
+      {cv::Mat(4, 4, CV_8UC1, cv::Scalar(42)), PixelFormat::kMono8, cv::Vec3b(42, 42, 42)},
+      {cv::Mat(4, 4, CV_16UC1, cv::Scalar(42 * 257)), PixelFormat::kMono16, cv::Vec3b(42, 42, 42)}};
+  for (const auto& [image, format, expected] : cases)
+  {
+    cv::Mat bgr;
+    Preprocessor::toBgr(image, format, bgr);
+    ASSERT_EQ(bgr.type(), CV_8UC3) << static_cast<int>(format);
+    EXPECT_EQ(bgr.at<cv::Vec3b>(3, 3), expected) << static_cast<int>(format);
+    EXPECT_NE(bgr.data, image.data) << static_cast<int>(format);
+  }
+}
+
 TEST(Preprocessor, RejectsMismatchedOrEmptyImages)
 {
   cv::Mat gray;
   EXPECT_THROW(Preprocessor::toGray(cv::Mat(), PixelFormat::kMono8, gray), std::invalid_argument);
   EXPECT_THROW(Preprocessor::toGray(cv::Mat(4, 4, CV_8UC3), PixelFormat::kMono8, gray), std::invalid_argument);
   EXPECT_THROW(Preprocessor::toGray(cv::Mat(4, 4, CV_32FC1), PixelFormat::kMono16, gray), std::invalid_argument);
+  EXPECT_THROW(Preprocessor::toBgr(cv::Mat(), PixelFormat::kBgr8, gray), std::invalid_argument);
+  EXPECT_THROW(Preprocessor::toBgr(cv::Mat(4, 4, CV_8UC1), PixelFormat::kRgb8, gray), std::invalid_argument);
 }
 
 namespace
