@@ -5,8 +5,9 @@
 
 CHARTS_JSON is the charts.json that spool_eval writes beside report.md: {"charts": [...]}, each
 chart a line chart (series of x/y points, null y = a gap, and dashed reference levels) or a
-grouped bar chart (a bar per category and group, null = no bar). Each chart is saved as the
-900x540 PNG its "file" names, in OUT_DIR (default: the folder of CHARTS_JSON).
+grouped bar chart (a bar per category and group, null = no bar, marked "n/a"). Each chart is
+saved as the 900x540 PNG its "file" names, in OUT_DIR (default: the folder of CHARTS_JSON;
+created if missing). Every chart is checked before any PNG is written.
 Exit: 0 drawn; 1 matplotlib missing or a PNG not written; 2 bad arguments or a bad charts file
 (the message names the chart and the key).
 """
@@ -74,17 +75,24 @@ def draw_bar(ax, chart):
         if len(values) != len(categories):
             raise ChartError("group '%s' has %d values for %d categories"
                              % (group.get("label"), len(values), len(categories)))
-        ax.bar([i - 0.4 + (k + 0.5) * width for i in range(len(categories))], values, width,
-               label=field(group, "label", str))
+        xs = [i - 0.4 + (k + 0.5) * width for i in range(len(categories))]
+        bars = ax.bar(xs, values, width, label=field(group, "label", str))
+        # No value is not 0%: say so where the bar would stand.
+        for x, v in zip(xs, values):
+            if math.isnan(v):
+                ax.text(x, 0.0, "n/a", rotation=90, ha="center", va="bottom", fontsize="x-small",
+                        color=bars.patches[0].get_facecolor())
     ax.set_xticks(range(len(categories)))
     ax.set_xticklabels(categories, rotation=15, ha="right")
+    ax.set_xlim(-0.5, len(categories) - 0.5)  # every category, even one without a bar
     y_max = chart.get("y_max")
     if y_max is not None:
-        ax.set_ylim(0.0, numbers([y_max], "y_max")[0])
+        top = numbers([y_max], "y_max")[0]
+        ax.set_ylim(0.0, 1.04 * top)  # a full bar stays clear of the frame
 
 
-def draw(pyplot, chart, out_dir):
-    """Saves `chart` as the PNG it names in `out_dir`; returns the path."""
+def draw(pyplot, chart):
+    """`chart` drawn as a figure (not saved yet), with the PNG name it is to be saved under."""
     name = field(chart, "file", str)
     if os.path.basename(name) != name or not name.endswith(".png"):
         raise ChartError("'file' must be a plain PNG name, not %r" % name)
@@ -98,13 +106,15 @@ def draw(pyplot, chart, out_dir):
         ax.set_title(field(chart, "title", str))
         ax.set_ylabel(field(chart, "y_label", str))
         ax.grid(True, color="0.9")
+        ax.set_axisbelow(True)
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize="small")
-        path = os.path.join(out_dir, name)
-        figure.savefig(path)  # the figure size and dpi give the pixels; no tight box
-        return path
-    finally:
+            # Beside the plot, not on it: bars and points reach every corner.
+            ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+        figure.tight_layout()  # the figure keeps its size and dpi; the axes make room
+        return figure, name
+    except BaseException:
         pyplot.close(figure)
+        raise
 
 
 def main(argv):
@@ -118,8 +128,10 @@ def main(argv):
     try:
         with open(source, encoding="utf-8") as f:
             charts = json.load(f)
-    except (OSError, ValueError) as e:
+    except OSError as e:
         fail(2, "cannot read %s: %s" % (source, e))
+    except ValueError as e:
+        fail(2, "%s is not valid JSON: %s" % (source, e))
     if not isinstance(charts, dict) or not isinstance(charts.get("charts"), list):
         fail(2, "%s: expected {\"charts\": [...]}" % source)
     try:
@@ -128,18 +140,24 @@ def main(argv):
         import matplotlib.pyplot as pyplot
     except ImportError as e:
         fail(1, "matplotlib is missing (%s): install python3-matplotlib (scripts/install_deps.sh)" % e)
+    drawn = []
     for index, chart in enumerate(charts["charts"]):
         label = "chart %d" % (index + 1)
         try:
             if not isinstance(chart, dict):
                 raise ChartError("is not an object")
             label += " (%s)" % chart.get("file", "no file")
-            draw(pyplot, chart, out_dir)
+            drawn.append(draw(pyplot, chart))
         except ChartError as e:
             fail(2, "%s: %s: %s" % (source, label, e))
-        except OSError as e:
-            fail(1, "%s: cannot write: %s" % (label, e))
-    print("plot_charts: %d charts in %s" % (len(charts["charts"]), out_dir))
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        for figure, name in drawn:
+            figure.savefig(os.path.join(out_dir, name))  # no tight box: 900x540 as drawn
+            pyplot.close(figure)
+    except OSError as e:
+        fail(1, "cannot write the charts in %s: %s" % (out_dir, e))
+    print("plot_charts: %d charts in %s" % (len(drawn), out_dir))
     return 0
 
 

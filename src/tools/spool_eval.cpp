@@ -29,9 +29,9 @@ using sv::cli::UsageError;
 namespace
 {
 const char* const kUsage =
-    "usage: spool_eval --out DIR [--count N] [--negatives N] [--hard N] [--distorted N] [--sizes WxH,...]\n"
-    "                  [--repeats N]\n"
-    "                  [--seed S] [--quick] [--config-dir DIR] [--require-bars] [--no-charts]\n"
+    "usage: spool_eval --out DIR [--count N] [--negatives N] [--hard N] [--distorted N]\n"
+    "                  [--sizes WxH,...] [--repeats N] [--seed S] [--quick] [--config-dir DIR]\n"
+    "                  [--require-bars] [--no-charts]\n"
     "  --out DIR         report folder: report.md, charts.json and the PNG charts (created)\n"
     "  --count N         main-set frames per setup (default 400, --quick 60)\n"
     "  --negatives N     negatives-set frames per setup (default half of --count)\n"
@@ -146,11 +146,10 @@ sv::FrameCounts countsAt(const Options& o, cv::Size size)
 }
 
 // Draws the report's charts: scripts/plot_charts.py (matplotlib) run by Debian's python3 on
-// `dir`/charts.json. Throws std::runtime_error when it cannot run or fails (it says why on stderr).
-void drawCharts(const std::string& dir)
+// `charts` (charts.json). Throws std::runtime_error when it cannot run or fails (it says why on stderr).
+void drawCharts(const std::string& charts)
 {
-  std::vector<std::string> args = {SPOOL_VISION_PYTHON, SPOOL_VISION_SOURCE_DIR "/scripts/plot_charts.py",
-                                   (std::filesystem::path(dir) / "charts.json").string()};
+  std::vector<std::string> args = {SPOOL_VISION_PYTHON, SPOOL_VISION_SOURCE_DIR "/scripts/plot_charts.py", charts};
   std::vector<char*> argv;
   for (std::string& a : args)
     argv.push_back(a.data());
@@ -196,8 +195,12 @@ int run(int argc, char** argv)
   const auto start = std::chrono::steady_clock::now();
   const sv::EvaluationResult result = sv::runEvaluation(config, showProgress);
   sv::writeReport(result, options.out);
+  const std::string charts = (std::filesystem::path(options.out) / "charts.json").string();
   if (options.charts)
-    drawCharts(options.out);
+    drawCharts(charts);
+  else
+    std::cerr << "spool_eval: charts not drawn (--no-charts): scripts/plot_charts.py " << charts
+              << " draws the PNGs report.md shows\n";
   std::cout << sv::headlineTable(result) << "\n" << sv::poseTable(result);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "spool_eval: done in " << static_cast<int>(seconds)

@@ -293,6 +293,10 @@ TEST(PlotChartsCli, DrawsLineAndBarChartsWithGaps)
   ASSERT_EQ(run.exit_code, 0) << run.errors;
   expectDrawnChart(dir / "line.png");
   expectDrawnChart(dir / "bar.png");
+  // Into another folder, made when missing.
+  const CliRun elsewhere = plotCharts((dir / "charts.json").string() + " " + (dir / "out" / "charts").string());
+  ASSERT_EQ(elsewhere.exit_code, 0) << elsewhere.errors;
+  expectDrawnChart(dir / "out" / "charts" / "bar.png");
 }
 
 TEST(PlotChartsCli, BadChartsFilesExitTwoNamingTheChartAndKey)
@@ -305,7 +309,7 @@ TEST(PlotChartsCli, BadChartsFilesExitTwoNamingTheChartAndKey)
   };
   const std::string line = R"("kind": "line", "title": "t", "x_label": "x", "y_label": "y", "levels": [])";
   const std::vector<Case> cases = {
-      {"{", "cannot read"},
+      {"{", "is not valid JSON"},
       {R"({"plots": []})", R"(expected {"charts": [...]})"},
       {R"({"charts": [{"file": "a.png", )" + line + "}]}", "chart 1 (a.png): missing 'series'"},
       {R"({"charts": [{"file": "a.png", "kind": "pie"}]})", "chart 1 (a.png): 'kind' is 'pie', not one of bar, line"},
@@ -325,6 +329,11 @@ TEST(PlotChartsCli, BadChartsFilesExitTwoNamingTheChartAndKey)
     EXPECT_TRUE(has(run.errors, "plot_charts: ")) << run.errors;
     EXPECT_TRUE(has(run.errors, c.message)) << c.json << "\n" << run.errors;
   }
+  // Every chart is checked before any is written: a bad second chart leaves no first PNG.
+  std::ofstream(dir / "charts.json") << R"({"charts": [{"file": "good.png", "series": [], )" + line +
+                                            R"(}, {"file": "bad.png", "kind": "pie"}]})";
+  EXPECT_EQ(plotCharts((dir / "charts.json").string()).exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir / "good.png"));
   const CliRun missing = plotCharts((dir / "missing.json").string());
   EXPECT_EQ(missing.exit_code, 2);
   EXPECT_TRUE(has(missing.errors, "cannot read " + (dir / "missing.json").string())) << missing.errors;
@@ -347,6 +356,17 @@ TEST(SpoolEvalCli, WritesTheReportAndDrawsEveryChartItShows)
     EXPECT_TRUE(has(md.str(), "(" + file + ")")) << file;
     expectDrawnChart(dir / file);
   }
+}
+
+TEST(SpoolEvalCli, NoChartsWritesTheirDataAndSaysHowToDrawThem)
+{
+  const fs::path dir = freshDir("eval_cli_no_charts") / "report";
+  const CliRun run = spoolEval("--out " + dir.string() + " --count 2 --sizes 160x120 --repeats 1 --no-charts");
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  EXPECT_TRUE(fs::exists(dir / "report.md"));
+  EXPECT_TRUE(fs::exists(dir / "charts.json"));
+  EXPECT_FALSE(fs::exists(dir / "distance.png"));
+  EXPECT_TRUE(has(run.errors, "scripts/plot_charts.py " + (dir / "charts.json").string())) << run.errors;
 }
 
 TEST(SpoolEvalCli, BadOptionsExitTwoNamingTheOption)
