@@ -50,7 +50,11 @@ void loadParamsYaml(const std::string& path, DetectorParams& params)
   DetectorParams loaded = params;
   for (const auto& item : root)
   {
-    const std::string key = item.first.as<std::string>();
+    // YAML allows any node as a key ("? {a: b}"); a parameter's is a word.
+    if (!item.first.IsScalar())
+      throw std::runtime_error("'" + path + "': a key that is not a parameter name (line " +
+                               std::to_string(item.first.Mark().line + 1) + ")");
+    const std::string key = item.first.Scalar();
     const ParamSpec* spec = findParamSpec(key);
     if (!spec)
       throw ParamError(key, "unknown parameter in '" + path + "'");

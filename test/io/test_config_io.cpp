@@ -140,6 +140,26 @@ TEST(ConfigIo, BadFilesNameTheProblem)
   EXPECT_THROW(loadParamsYaml(writeTemp("word.yaml", "filter_sigma: wide\n"), p), ParamError);
   EXPECT_THROW(loadParamsYaml(writeTemp("list.yaml", "filter_sigma: [1, 2]\n"), p), ParamError);
   EXPECT_THROW(loadParamsYaml(writeTemp("broken.yaml", "filter: [gaussian\n"), p), std::runtime_error);
+  // A key that is a map or a list (YAML's "? " keys), found by params_yaml_fuzz: the file's error.
+  for (const char* text : {"? {filter: gaussian}\n: 1\n", "? [filter]\n: 1\n", "? filter: median\n"})
+  {
+    const std::string path = writeTemp("complex_key.yaml", text);
+    try
+    {
+      loadParamsYaml(path, p);
+      FAIL() << "a complex key accepted: " << text;
+    }
+    catch (const ParamError& e)
+    {
+      FAIL() << "a complex key read as a parameter: " << e.what();
+    }
+    catch (const std::runtime_error& e)
+    {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not a parameter name"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(p.preprocess.filter, DetectorParams().preprocess.filter);
   EXPECT_THROW(loadParamsYaml("/nonexistent/params.yaml", p), std::runtime_error);
   // Relations are checked after the whole file is read, and a failed load changes nothing.
   EXPECT_THROW(loadParamsYaml(writeTemp("order.yaml", "hole_radius_min: 9\nhole_radius_max: 4\n"), p), ParamError);
