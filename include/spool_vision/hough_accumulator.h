@@ -227,8 +227,9 @@ private:
                     const BackFlange& back);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
   /// taken_: the indices into near_ of the edges in the band `band` px wide about the axis-aligned
-  /// ellipse (cx, cy, semi_x, semi_y) that support it for `sign` (centreSign); returns their count.
-  std::size_t pickBand(double cx, double cy, double semi_x, double semi_y, double band, float sign);
+  /// ellipse of `model` (centre, r_horizontal, r_vertical) that support it for `sign`
+  /// (centreSign); returns their count.
+  std::size_t pickBand(const Circle& model, double band, float sign);
   /// The edges of near_ within `band` px of the axis-aligned ellipse (semi_x, semi_y) centred at
   /// `c` that support it for `sign` (centreSign), each weighted by how close it lies (1 on the
   /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of

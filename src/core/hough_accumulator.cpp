@@ -804,14 +804,16 @@ bool fitRimModel(const RimMoments& m, double mean_r, Circle& model)
 }
 }  // namespace
 
-std::size_t HoughAccumulator::pickBand(double cx, double cy, double semi_x, double semi_y, double band, float sign)
+std::size_t HoughAccumulator::pickBand(const Circle& model, double band, float sign)
 {
   // The band test compares squares: no square root for points outside.
+  const double semi_x = model.r_horizontal;
+  const double semi_y = model.r_vertical;
   const double b = band / std::sqrt(semi_x * semi_y);
   const double rho_min2 = std::pow(std::max(0.0, 1.0 - b), 2);
   const double rho_max2 = std::pow(1.0 + b, 2);
-  inEllipseBand(near_.data(), near_count_, {cx, cy}, 1.0 / (semi_x * semi_x), 1.0 / (semi_y * semi_y), rho_min2,
-                rho_max2, sign, keep_.data());
+  inEllipseBand(near_.data(), near_count_, {model.x, model.y}, 1.0 / (semi_x * semi_x), 1.0 / (semi_y * semi_y),
+                rho_min2, rho_max2, sign, keep_.data());
   // Picked without a branch per edge: every index is written, the count advances over the kept.
   if (taken_.size() < near_count_)
     taken_.resize(near_count_);
@@ -844,7 +846,7 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
   for (int iteration = 0; iteration <= kFits; ++iteration)
   {
     const double band = std::max(1.5, kBands[iteration] * model.r);
-    count = pickBand(model.x, model.y, model.r_horizontal, model.r_vertical, band, sign);
+    count = pickBand(model, band, sign);
     if (iteration == kFits)
       break;
     if (count < 8)
