@@ -31,6 +31,8 @@ public:
   void process(const cv::Mat& image, PixelFormat format, cv::Mat& out);
 
   /// The stages one at a time (each `out` may alias nothing else).
+  /// toGray() and toBgr() run on the calling thread (cv::cvtColor over the frame as one row:
+  /// OpenCV's parallel_for_ keeps a one-row range in place), with the same pixels as a plain call.
   static void toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray);
   /// `image` of `format` as 8-bit BGR in `bgr` (always a copy, for drawing on; mono16 scaled as
   /// toGray() scales it). Throws std::invalid_argument as process() does.

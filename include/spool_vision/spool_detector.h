@@ -46,6 +46,10 @@ public:
   /// then mapped back to where they appear in the frame given (radii stay those of the
   /// undistorted image), while the candidates below stay undistorted and preprocessed() is the
   /// frame's own geometry.
+  /// Threads: the whole call runs on the calling thread, OpenCV's worker pool included (the
+  /// colour conversion goes through as one row; see Preprocessor::toGray), for every filter but
+  /// `median`, `average` and the thesis' binarization, morphology and area opening, which OpenCV
+  /// may split among its threads. One detector per thread; different detectors share nothing.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format);
 
   /// Intermediate results of the last frame, for overlays and debugging.

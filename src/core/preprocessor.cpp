@@ -156,6 +156,25 @@ ColourCodes colourCodes(PixelFormat format)
   }
   return {-1, -1};
 }
+
+// cv::cvtColor on the calling thread. OpenCV splits a frame's rows among its worker threads (TBB
+// on Debian) but runs a range of one row in place, so the frame goes through as one row (or row
+// by row when strided). The per-frame path stays on its caller's thread: the speed bars are per
+// core, and a worker thread's start allocates and delays the frame. Pixels are the same.
+void convertColour(const cv::Mat& src, cv::Mat& dst, int code)
+{
+  if (src.isContinuous() && dst.isContinuous())
+  {
+    cv::Mat dst_row = dst.reshape(0, 1);
+    cv::cvtColor(src.reshape(0, 1), dst_row, code);
+    return;
+  }
+  for (int y = 0; y < src.rows; ++y)
+  {
+    cv::Mat dst_row = dst.row(y);
+    cv::cvtColor(src.row(y), dst_row, code);
+  }
+}
 }  // namespace
 
 void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gray)
@@ -165,7 +184,7 @@ void Preprocessor::toGray(const cv::Mat& image, PixelFormat format, cv::Mat& gra
   if (format == PixelFormat::kMono16)
     image.convertTo(gray, CV_8U, 1.0 / 257.0);  // 65535 -> 255
   else if (const int code = colourCodes(format).to_gray; code >= 0)
-    cv::cvtColor(image, gray, code);
+    convertColour(image, gray, code);
   else
     image.copyTo(gray);
 }
@@ -177,10 +196,14 @@ void Preprocessor::toBgr(const cv::Mat& image, PixelFormat format, cv::Mat& bgr)
   {
     cv::Mat mono8;
     toGray(image, format, mono8);
-    cv::cvtColor(mono8, bgr, cv::COLOR_GRAY2BGR);
+    bgr.create(image.size(), CV_8UC3);
+    convertColour(mono8, bgr, cv::COLOR_GRAY2BGR);
   }
   else if (const int code = colourCodes(format).to_bgr; code >= 0)
-    cv::cvtColor(image, bgr, code);
+  {
+    bgr.create(image.size(), CV_8UC3);
+    convertColour(image, bgr, code);
+  }
   else
     image.copyTo(bgr);
 }
