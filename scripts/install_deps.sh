@@ -15,6 +15,9 @@ PACKAGES=(
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-sensor-msgs
   python3-dynamic-reconfigure python3-cv-bridge python3-numpy
   python3-opencv python3-yaml python3-matplotlib python3-std-srvs python3-rosgraph-msgs python3-diagnostic-msgs ros-image-view
+  # image_proc's rectify nodelet (image_proc_rectify.test): the node is in ros-image-proc, the
+  # nodelets' plugin description in libimage-proc-dev
+  ros-image-proc libimage-proc-dev
   python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools rviz
   libnodeletlib-tools
   libopencv-dev libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev

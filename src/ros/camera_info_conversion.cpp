@@ -41,11 +41,11 @@ CameraInfoConversion refuse(const std::string& problem)
 // with distortion, else P (K where P is left zero). False, with `problem` saying why, for a
 // distortion model the detector cannot undo.
 bool intrinsicsOf(const sensor_msgs::CameraInfo& info, const image_geometry::PinholeCameraModel& model, bool rectified,
-                  CameraIntrinsics& camera, std::string& problem)
+                  CameraIntrinsics& camera, std::string& problem, std::string& distortion_ignored)
 {
   namespace models = sensor_msgs::distortion_models;
-  const bool raw = !rectified && std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
-  if (raw)
+  const bool distorted = std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
+  if (distorted && !rectified)
   {
     const bool plumb_bob = info.distortion_model == models::PLUMB_BOB && info.D.size() == 5;
     const bool rational = info.distortion_model == models::RATIONAL_POLYNOMIAL && info.D.size() == 8;
@@ -74,6 +74,12 @@ bool intrinsicsOf(const sensor_msgs::CameraInfo& info, const image_geometry::Pin
     camera.fy = has_p ? p(1, 1) : k(1, 1);
     camera.cx = has_p ? p(0, 2) : k(0, 2);
     camera.cy = has_p ? p(1, 2) : k(1, 2);
+    if (distorted)
+      distortion_ignored = std::string("the images are taken for rectified, so they are read with ") +
+                           (has_p ? "P" : "K (P is unset)") + " (fx " + number(camera.fx) + ", fy " +
+                           number(camera.fy) + " px) and camera_info's non-zero D (the raw image's lens, " +
+                           info.distortion_model +
+                           ") is not applied again; if these images are raw, set rectified:=false";
   }
 
   return true;
@@ -95,7 +101,8 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
   model.fromCameraInfo(info);
   CameraIntrinsics camera;
   std::string problem;
-  if (!intrinsicsOf(info, model, rectified, camera, problem))
+  std::string distortion_ignored;
+  if (!intrinsicsOf(info, model, rectified, camera, problem, distortion_ignored))
     return refuse(problem);
 
   // The image the camera_info describes: its ROI (or the full size) reduced by the binning.
@@ -128,6 +135,7 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
                     " for the best accuracy";
   }
   result.camera = camera;
+  result.distortion_ignored = distortion_ignored;
   return result;
 }
 

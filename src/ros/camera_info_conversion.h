@@ -23,13 +23,18 @@ struct CameraInfoConversion
   bool refused = false;
   /// Set when the calibration was made for another size of the same aspect ratio and was scaled.
   std::string scaled;
+  /// Set when the image is taken for rectified but the camera_info has a non-zero D: D is not
+  /// applied again (image_proc publishes image_rect beside the raw camera_info, so that is the
+  /// normal pipeline, and undistorting twice would bend every rim), and the text says which
+  /// matrix describes the image and how to say the image is raw after all.
+  std::string distortion_ignored;
 };
 
 /// Reads `info` for an image of image_width x image_height:
 /// - K all zero (an uncalibrated camera_info_manager): no camera;
 /// - `rectified` (the image is image_proc's image_rect, published beside the raw camera_info and
 ///   its D) or D all zero or empty: the image is rectified or undistorted, described by P (K
-///   when P is unset); no distortion;
+///   when P is unset); no distortion (a non-zero D is then reported in `distortion_ignored`);
 /// - otherwise a raw image: K with D, plumb_bob (5 coefficients) or rational_polynomial (8);
 ///   other models (equidistant, ...) are refused;
 /// - binning and ROI as PinholeCameraModel applies them (principal point shifted by the ROI

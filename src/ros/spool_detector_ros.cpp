@@ -148,7 +148,11 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
     throw ParamError("max_rate", "min_rate and max_rate must satisfy 0 < min_rate <= max_rate");
   const bool use_camera_info = readRosOption<bool>(pnh_, "use_camera_info", true, "true or false");
   const bool publish_tf = readRosOption<bool>(pnh_, "publish_tf", false, "true or false");
-  const auto rectified = readRosOption<std::string>(pnh_, "rectified", "auto", "auto, true or false");
+  // A word or a bool: roslaunch's <param value="false"> and YAML's false arrive as bools.
+  bool rectified_flag = false;
+  const std::string rectified = pnh_.getParam("rectified", rectified_flag)
+                                    ? (rectified_flag ? "true" : "false")
+                                    : readRosOption<std::string>(pnh_, "rectified", "auto", "auto, true or false");
   // A topic named .../compressed is the compressed stream of the image topic before it.
   const std::string image = nh_.resolveName("image");
   const bool compressed = transport == kCompressed || endsWith(image, kCompressedSuffix);
@@ -342,11 +346,23 @@ void SpoolDetectorRos::handleFrame(const std_msgs::Header& header, const std::st
     if (shouldLogError(input, e.what()))
       ROS_ERROR("spool_detector: cannot process %s: %s", description.c_str(), e.what());
     const auto& g = detector_.params().geometry;
-    pose_pub_.publish(undefinedSpoolPose(header, (g.hole_diameter - g.puller_diameter) / 2.0));
+    publishPose(undefinedSpoolPose(header, (g.hole_diameter - g.puller_diameter) / 2.0));
     marker_pub_.publish(spoolMarker(header, std::nullopt, g.flange_diameter, g.hub_length));
     ++window_failed_;
   }
-  window_callback_ms_ += (ros::WallTime::now() - start).toSec() * 1000.0;
+  const double callback_ms = (ros::WallTime::now() - start).toSec() * 1000.0;
+  window_callback_ms_ += callback_ms;
+  window_processing_ms_.add(callback_ms);
+}
+
+void SpoolDetectorRos::publishPose(const SpoolPose& pose)
+{
+  pose_pub_.publish(pose);
+  // A stamp after the clock (a bag's loop sends the clock back first, or a camera on another
+  // clock) says nothing about this node's delay.
+  const double latency_ms = (ros::Time::now() - pose.header.stamp).toSec() * 1000.0;
+  if (latency_ms >= 0.0)
+    window_latency_ms_.add(latency_ms);
 }
 
 bool SpoolDetectorRos::shouldLogError(const std::string& encoding, const std::string& what)
@@ -423,7 +439,7 @@ void SpoolDetectorRos::processFrame(const std_msgs::Header& header, const cv::Ma
   updateCamera(info, image.cols, image.rows);
   const SpoolDetection detection = detector_.detect(image, format);
   reportCameraSource(image.size());
-  pose_pub_.publish(toSpoolPose(detection, header));
+  publishPose(toSpoolPose(detection, header));
   publishSpool3d(detection, header);
 
   ++window_frames_;
@@ -456,6 +472,9 @@ void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info,
   if (!conversion.scaled.empty() && conversion.scaled != reported_scaling_)
     ROS_WARN("spool_detector: %s", conversion.scaled.c_str());
   reported_scaling_ = conversion.scaled;
+  if (!conversion.distortion_ignored.empty() && conversion.distortion_ignored != reported_distortion_ignored_)
+    ROS_WARN("spool_detector: %s: %s", image_topic_.c_str(), conversion.distortion_ignored.c_str());
+  reported_distortion_ignored_ = conversion.distortion_ignored;
   if (info_camera_ != conversion.camera)
   {
     detector_.setCamera(*conversion.camera);
@@ -547,6 +566,17 @@ uint32_t SpoolDetectorRos::imagePublishers() const
   return compressed_sub_ ? compressed_sub_.getNumPublishers() : image_sub_.getNumPublishers();
 }
 
+namespace
+{
+// "<name> p50 (ms)", "p95" and "max" of `window`.
+void addQuantiles(diagnostic_updater::DiagnosticStatusWrapper& status, const std::string& name, SampleWindow& window)
+{
+  status.addf(name + " p50 (ms)", "%.2f", window.quantile(0.5));
+  status.addf(name + " p95 (ms)", "%.2f", window.quantile(0.95));
+  status.addf(name + " max (ms)", "%.2f", window.quantile(1.0));
+}
+}  // namespace
+
 void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWrapper& status)
 {
   using diagnostic_msgs::DiagnosticStatus;
@@ -568,11 +598,19 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
   }
   const int callbacks = window_frames_ + window_failed_;
   if (callbacks > 0)
+  {
     status.addf("Callback time mean (ms)", "%.2f", window_callback_ms_ / callbacks);
+    addQuantiles(status, "Processing time", window_processing_ms_);
+  }
+  // Image stamp to SpoolPose publication (transport, decoding, detection), in ros::Time.
+  if (!window_latency_ms_.empty())
+    addQuantiles(status, "Latency", window_latency_ms_);
   status.add("Camera", detector_.usingFallbackCamera() ? "thesis fallback" : "camera_info");
 
   window_frames_ = window_detected_ = window_failed_ = 0;
   window_detector_ms_ = window_detector_max_ms_ = window_callback_ms_ = 0.0;
+  window_latency_ms_.clear();
+  window_processing_ms_.clear();
 }
 
 }  // namespace spool_vision

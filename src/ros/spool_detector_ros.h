@@ -20,7 +20,9 @@
 #include <sensor_msgs/Image.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include "sample_window.h"
 #include "spool_vision/SpoolDetectorConfig.h"
+#include "spool_vision/SpoolPose.h"
 #include "spool_vision/spool_detector.h"
 #include "stamp_pairing.h"
 #include "stream_monitor.h"
@@ -76,6 +78,8 @@ private:
                     const sensor_msgs::CameraInfoConstPtr& info);
   /// Gives the detector the camera `info` describes for an image of this size (or the fallback).
   void updateCamera(const sensor_msgs::CameraInfoConstPtr& info, int width, int height);
+  /// Publishes `pose` on ~spool_pose and takes its latency (now - its stamp) into the window.
+  void publishPose(const SpoolPose& pose);
   void publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header);
   /// True when an input error of this kind was not logged in the last throttle period.
   bool shouldLogError(const std::string& encoding, const std::string& what);
@@ -127,6 +131,7 @@ private:
   bool camera_refused_ = false;   ///< camera_problem_ is a refused calibration (an error)
   std::string reported_problem_;  ///< the fallback reason last logged; empty while calibrated
   std::string reported_scaling_;
+  std::string reported_distortion_ignored_;
   ros::WallTimer camera_info_check_timer_;
   int frames_since_check_ = 0;
   bool missing_info_reported_ = false;
@@ -141,6 +146,8 @@ private:
   double window_detector_ms_ = 0.0;
   double window_detector_max_ms_ = 0.0;
   double window_callback_ms_ = 0.0;
+  SampleWindow window_latency_ms_;     ///< ros::Time::now() - stamp at each SpoolPose's publication
+  SampleWindow window_processing_ms_;  ///< wall time of each frame's callback
 };
 
 }  // namespace spool_vision

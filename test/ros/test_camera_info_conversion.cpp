@@ -62,6 +62,27 @@ TEST(CameraInfoConversion, ImageRectBesideTheRawCameraInfoIsPWhateverD)
   ASSERT_TRUE(result.camera) << result.problem;
   expectIntrinsics(*result.camera, 760.0, 770.0, 318.0, 241.0, 640, 480);
   EXPECT_FALSE(result.camera->distorted());
+  // Said, because a raw stream taken for rectified would be measured without its lens.
+  EXPECT_NE(result.distortion_ignored.find("read with P (fx 760"), std::string::npos) << result.distortion_ignored;
+  EXPECT_NE(result.distortion_ignored.find("rectified:=false"), std::string::npos) << result.distortion_ignored;
+}
+
+TEST(CameraInfoConversion, RectifiedWithDistortionAndUnsetPIsKAndSaysSo)
+{
+  sensor_msgs::CameraInfo info = calibration("plumb_bob", kPlumbBob);
+  info.P.fill(0.0);
+  const auto result = cameraFromInfo(info, 640, 480, /*rectified=*/true);
+  ASSERT_TRUE(result.camera) << result.problem;
+  expectIntrinsics(*result.camera, 810.0, 812.0, 322.0, 236.0, 640, 480);
+  EXPECT_FALSE(result.camera->distorted());
+  EXPECT_NE(result.distortion_ignored.find("read with K (P is unset)"), std::string::npos) << result.distortion_ignored;
+}
+
+TEST(CameraInfoConversion, NothingIgnoredWithoutDistortionOrOnARawImage)
+{
+  EXPECT_TRUE(
+      cameraFromInfo(calibration("plumb_bob", {0.0, 0.0, 0.0, 0.0, 0.0}), 640, 480, true).distortion_ignored.empty());
+  EXPECT_TRUE(cameraFromInfo(calibration("plumb_bob", kPlumbBob), 640, 480, false).distortion_ignored.empty());
 }
 
 TEST(CameraInfoConversion, RectifiedAutoGoesByTheImageTopicsName)

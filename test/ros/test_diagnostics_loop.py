@@ -29,6 +29,7 @@ class DiagnosticsLoopTest(unittest.TestCase):
             cls.stamps = sorted({m.header.stamp for _, m, _ in bag.read_messages(topics=["/camera/image_raw"])})
         cls.lock = threading.Lock()
         cls.statuses = []  # (wall time, status) of the node's stream statuses
+        cls.processing = []  # its "Processing" statuses
         cls.pose_counts = collections.Counter()
         cls.clock_jumps = 0
         cls.last_clock = None
@@ -46,6 +47,8 @@ class DiagnosticsLoopTest(unittest.TestCase):
             for status in msg.status:
                 if status.name.startswith(NODE + ": Frame"):
                     cls.statuses.append((time.time(), status))
+                elif status.name == NODE + ": Processing":
+                    cls.processing.append(status)
 
     @classmethod
     def on_pose(cls, msg):
@@ -75,6 +78,19 @@ class DiagnosticsLoopTest(unittest.TestCase):
             statuses = self.wait_for_statuses(since, name, 2)
             self.assertTrue(all(s.level == DiagnosticStatus.STALE and s.message == "no frames" for s in statuses),
                             name + ":\n" + self.describe(statuses))
+
+    def assert_latency_reported(self):
+        # Each update with frames gives the latency (stamp to SpoolPose publication, in the bag's
+        # time) and the processing time per frame as 0 <= p50 <= p95 <= max, under a second even
+        # on a loaded 2-core machine.
+        with self.lock:
+            updates = [{v.key: v.value for v in s.values} for s in self.processing]
+        with_frames = [u for u in updates if int(u.get("Frames", "0")) > 0]
+        self.assertGreaterEqual(len(with_frames), LOOPS, updates)
+        for name in ("Latency", "Processing time"):
+            for u in with_frames:
+                p50, p95, top = (float(u[name + " %s (ms)" % q]) for q in ("p50", "p95", "max"))
+                self.assertTrue(0.0 <= p50 <= p95 <= top < 1000.0, "%s: %s" % (name, u))
 
     def test_loops_and_pauses(self):
         # Paused from the start: no frames yet.
@@ -110,6 +126,8 @@ class DiagnosticsLoopTest(unittest.TestCase):
         self.assertGreaterEqual(min(counts), LOOPS, counts)
         self.assertLessEqual(max(counts) - min(counts), 1, counts)
         self.assertEqual(counts, sorted(counts, reverse=True), counts)
+
+        self.assert_latency_reported()
 
         resumed_at = time.time()
         self.pause(False)
