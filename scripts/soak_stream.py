@@ -6,9 +6,10 @@ other's clock readings):
                                                  with camera_info, on /camera/image_raw; writes
                                                  the stamps it published, one a line
     soak_stream.py monitor NODE STAMPS_FILE      every /spool_pose's latency (receive time -
-                                                 header stamp) and the node's RSS (from /proc,
-                                                 each second) until STAMPS_FILE appears; then
-                                                 prints the figures and PASS or FAIL
+                                                 header stamp), the node's RSS (from /proc,
+                                                 each second) and its "Processing" diagnostics
+                                                 until STAMPS_FILE appears; then prints the
+                                                 figures and PASS or FAIL
 """
 import os
 import sys
@@ -91,6 +92,19 @@ def monitor(node, stamps_file):
             received[msg.header.stamp.to_nsec()] = now - msg.header.stamp.to_sec()
 
     rospy.Subscriber("/spool_pose", SpoolPose, on_pose, queue_size=1000, tcp_nodelay=True)
+    # The node's own view: latency (stamp to publication) and processing time per period.
+    from diagnostic_msgs.msg import DiagnosticArray
+    processing = []  # {key: value} of each "Processing" update with frames
+
+    def on_diagnostics(msg):
+        for status in msg.status:
+            if status.name == node.lstrip("/") + ": Processing":
+                values = {v.key: v.value for v in status.values}
+                if int(values.get("Frames", "0")) > 0:
+                    with lock:
+                        processing.append(values)
+
+    rospy.Subscriber("/diagnostics", DiagnosticArray, on_diagnostics, queue_size=100)
     pid = node_pid(node)
     start = time.time()
     rss = []  # (s since start, kB)
@@ -115,6 +129,15 @@ def monitor(node, stamps_file):
     if latencies:
         print("latency ms (stamp to /spool_pose received): p50 %.2f, p99 %.2f, max %.2f" % (
             percentile(latencies, 0.5), percentile(latencies, 0.99), latencies[-1]))
+    with lock:
+        updates = list(processing)
+    for name in ("Latency", "Processing time"):
+        keys = [name + " %s (ms)" % q for q in ("p50", "p95", "max")]
+        rows = [[float(u[k]) for k in keys] for u in updates if all(k in u for k in keys)]
+        if rows:
+            print("node diagnostics, %s ms over %d updates: p50 median %.2f, p95 max %.2f, max %.2f" % (
+                name.lower(), len(rows), np.median([r[0] for r in rows]), max(r[1] for r in rows),
+                max(r[2] for r in rows)))
     print("node RSS: %d kB at start, %d kB at %.0f s, %d kB at the end, growth after %.0f s: %d kB" % (
         rss[0][1], after[0], warm_up, rss[-1][1], warm_up, growth))
     ok = published and dropped == 0 and growth < MAX_RSS_GROWTH_KB
