@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
 # The ROS demo: installs and builds, starts its own roscore, replays the demo approach bag
 # (110 -> 51 cm deep, ending aligned) through the spool_detector node, prints the SpoolPose stream
-# as `rostopic echo` does and a one-line summary, then stops everything it started.
+# as `rostopic echo` does, the paths of two pictures and a one-line summary (the last line), then
+# stops everything it started. The pictures: approach_sheet.png, every frame's overlay labelled
+# with its index, depth and state (aligned frames framed green), and approach_plot.png, depth,
+# bearing, spool axis angle and aligned against time.
 #   scripts/demo.sh [BAG]   default: the bundled test/data/demo_approach.bag, or one rendered
 #                           into the build workspace when that is missing
+#   SPOOL_DEMO_DIR          folder of the pictures (default: $SPOOL_WS/demo)
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 cd "$SPOOL_ROOT"
@@ -31,4 +35,5 @@ source "$SPOOL_ROOT/scripts/own_master.sh" demo
 # links back to it (build/ws/src/spool_vision).
 roslaunch "$SPOOL_ROOT/launch/replay.launch" bag:="$bag" paused:=true >>"$log" 2>&1 &
 pids+=($!)
-/usr/bin/python3 "$SPOOL_ROOT/scripts/echo_poses.py" --bag "$bag" --resume /player/pause_playback
+/usr/bin/python3 "$SPOOL_ROOT/scripts/echo_poses.py" --bag "$bag" --resume /player/pause_playback \
+  --pictures "${SPOOL_DEMO_DIR:-$SPOOL_WS/demo}"
