@@ -154,12 +154,30 @@ struct GeometryParams
   double aligned_max_pixel_angle = 0.0015;
 };
 
+/// Following one spool over the approach (SpoolTracker, DESIGN.md §8).
+struct TrackerParams
+{
+  /// m/s^2, white-noise acceleration of the bore's front centre relative to the camera (the
+  /// robot speeding up, braking, turning): the process noise of the constant-velocity model
+  double acceleration = 0.3;
+  double axis_drift = 0.002;  ///< rad/sqrt(s), random walk of the spool axis seen from the camera
+  /// Mahalanobis distance of a detection's position from the prediction beyond which it is
+  /// refused (not fused, counted): 4 keeps 99.6% of true detections (3 degrees of freedom)
+  double gate = 4.0;
+  int max_coast = 5;       ///< frames without a fused detection before the track is lost
+  int confirm_frames = 3;  ///< frames in a row the filtered state must clear the bore for aligned
+  /// aligned needs each of the puller's misses plus this many standard deviations within t_f
+  double aligned_sigma = 3.0;
+  double noise_scale = 1.0;  ///< multiplies the measured error model's sigmas (docs/error_model.md)
+};
+
 struct DetectorParams
 {
   PreprocessParams preprocess;
   HoughParams hough;
   MatcherParams matcher;
   GeometryParams geometry;
+  TrackerParams tracker;
 };
 
 /// A bad parameter: names the key and what it may be.

@@ -11,6 +11,14 @@
 
 namespace spool_vision
 {
+/// How far (m) the puller's axis passes from the bore's axis at the bore's front and at its back
+/// end (bore_length_max along `axis`: the miss along a straight bore is convex in the depth, so a
+/// shorter bore clears wherever this one does), for a bore whose front centre is `position`
+/// (camera optical frame); the puller runs parallel to the optical axis through
+/// (puller_offset_x, puller_offset_y). Thesis Eq. 3.8 taken along the bore.
+void pullerMiss(const GeometryParams& params, const cv::Point3d& position, const cv::Vec3d& axis, double& front,
+                double& back);
+
 class SpoolGeometry
 {
 public:
@@ -48,12 +56,6 @@ public:
 
   /// The point at `depth` (m) seen at pixel (u, v), camera optical frame (pinhole).
   cv::Point3d backProject(double u, double v, double depth) const;
-
-  /// How far (m) the puller's axis passes from the bore's axis at the bore's front and at its
-  /// back end (bore_length_max along `axis`: the miss along a straight bore is convex in the depth,
-  /// so a shorter bore clears wherever this one does), for a bore whose front centre is `position`; the
-  /// puller runs parallel to the optical axis through (puller_offset_x, puller_offset_y).
-  void pullerMiss(const cv::Point3d& position, const cv::Vec3d& axis, double& front, double& back) const;
 
   /// Yaw (rad) of a flange centred at column u, relative to the reference column.
   /// pinhole: atan((u - u_ref) / fx); linear_fov: FOV / sqrt(w^2 + h^2) * (u - u_ref).

@@ -194,6 +194,21 @@ std::vector<ParamSpec> buildSpecs()
       number("aligned_max_pixel_angle", FIELD(geometry.aligned_max_pixel_angle), 0.0, 1.0, "rad",
              "aligned only where one pixel subtends at most this (1 / fy; 640x480: 0.00125): a coarser image "
              "measures the spool axis too loosely to clear t_f over the bore (1 = off)"),
+      // Tracking over the approach (SpoolTracker; the node's ~track, spool_detect --track)
+      number("track_acceleration", FIELD(tracker.acceleration), 0.01, 50.0, "m/s^2",
+             "process noise: white-noise acceleration of the bore's front centre relative to the camera"),
+      number("track_axis_drift", FIELD(tracker.axis_drift), 0.0, 1.0, "rad/sqrt(s)",
+             "process noise: random walk of the spool axis seen from the camera"),
+      number("track_gate", FIELD(tracker.gate), 1.0, 100.0, "",
+             "Mahalanobis distance from the prediction beyond which a detection is refused, not fused"),
+      number("track_max_coast", FIELD(tracker.max_coast), 0, 1000, "frames",
+             "frames without a fused detection before the track is lost"),
+      number("track_confirm_frames", FIELD(tracker.confirm_frames), 1, 100, "frames",
+             "frames in a row the filtered state must clear the bore before aligned"),
+      number("track_aligned_sigma", FIELD(tracker.aligned_sigma), 0.0, 10.0, "",
+             "aligned needs each puller miss plus this many standard deviations within t_f - aligned_margin"),
+      number("track_noise_scale", FIELD(tracker.noise_scale), 0.1, 10.0, "",
+             "multiplies the measured error model's sigmas (docs/error_model.md)"),
   };
 }
 #undef FIELD

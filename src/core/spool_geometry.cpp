@@ -185,12 +185,13 @@ bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Po
   return true;
 }
 
-void SpoolGeometry::pullerMiss(const cv::Point3d& position, const cv::Vec3d& axis, double& front, double& back) const
+void pullerMiss(const GeometryParams& params, const cv::Point3d& position, const cv::Vec3d& axis, double& front,
+                double& back)
 {
-  const cv::Point2d puller(params_.puller_offset_x, params_.puller_offset_y);
+  const cv::Point2d puller(params.puller_offset_x, params.puller_offset_y);
   front = std::hypot(position.x - puller.x, position.y - puller.y);
-  back = std::hypot(position.x + params_.bore_length_max * axis[0] - puller.x,
-                    position.y + params_.bore_length_max * axis[1] - puller.y);
+  back = std::hypot(position.x + params.bore_length_max * axis[0] - puller.x,
+                    position.y + params.bore_length_max * axis[1] - puller.y);
 }
 
 double SpoolGeometry::yaw(double u, double u_ref) const
@@ -276,7 +277,7 @@ void SpoolGeometry::measure(SpoolDetection& d, const std::vector<cv::Point2f>& r
   d.overlapped = d.hole_detected && on_reference(d.flange) && on_reference(d.hole);
   double front_miss = SpoolDetection::kNaN;
   double back_miss = SpoolDetection::kNaN;
-  pullerMiss(d.position, d.axis, front_miss, back_miss);
+  pullerMiss(params_, d.position, d.axis, front_miss, back_miss);
   // Rule 3 (overlapped) is the thesis' pixel test, reported on its own; alignment is the physical
   // one (3 px at 640x480 is 2 mm at 55 cm, stricter than the 2.5 mm clearance, and a turned rim's
   // ellipse centre is off the axis). NaN (no hole rim, no axis) compares false.

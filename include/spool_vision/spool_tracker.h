@@ -1,0 +1,143 @@
+// Stage 5: one spool followed over the approach, from first confident sight to insertion
+// (DESIGN.md §8). The camera moves and the spool does not, so the bore's front centre moves in
+// the camera optical frame as smoothly as the robot drives: a Kalman filter with a
+// constant-velocity model fuses each frame's detection, weighted by a measured error model, and
+// refuses a detection that disagrees with the prediction (a rib ring taken for the flange) instead
+// of passing a 30 cm jump to the controller. `aligned` is decided on the filtered state and its
+// uncertainty, confirmed over consecutive frames.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "spool_vision/detector_params.h"
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+/// The track's state in a frame. The values are the SpoolPose message's constants.
+enum class TrackState : std::uint8_t
+{
+  kSearching = 0,  ///< no track: waiting for a detection with a hole rim
+  kTracking = 1,   ///< this frame's detection was fused
+  kCoasting = 2,   ///< no detection, or one refused by the gate: the prediction, flagged
+  kLost = 3        ///< the track ended in this frame (coasted too long, or a consistent other spool)
+};
+
+/// "searching", "tracking", "coasting", "lost".
+const char* toString(TrackState state);
+
+/// 1-sigma measurement noise of one detection (the error model, docs/error_model.md).
+struct MeasurementNoise
+{
+  double radius_px = 0.0;  ///< flange rim radius, px: depth sigma = depth * radius_px / r_px
+  double centre_px = 0.0;  ///< the bore's front centre in the image, px
+  double axis = 0.0;       ///< rad, each of the spool axis's two slopes; infinite without a hole rim
+};
+
+/// The measured error model of the detector (docs/error_model.md: the table it comes from),
+/// scaled by track_noise_scale: the flange radius and the bore centre in px, by the image height
+/// the camera streams (interpolated in between), times a factor for a flange cut by the frame
+/// border (under 90% of its rim in view) and for a detection without a hole rim (the flange's
+/// centre stands in for the bore's, up to f (R/Z)^2 sin(tilt) px off).
+MeasurementNoise measurementNoise(const SpoolDetection& detection, int image_height, const TrackerParams& params);
+
+/// What the tracker holds after a frame. Positions in the camera optical frame (REP 103), m.
+struct TrackedSpool
+{
+  static constexpr double kNaN = SpoolDetection::kNaN;
+
+  TrackState state = TrackState::kSearching;
+  int age = 0;       ///< frames since the track started (0 without a track)
+  int rejected = 0;  ///< detections refused by the gate since the track started
+  /// This frame's detection disagreed with the prediction by more than track_gate (Mahalanobis)
+  bool rejected_now = false;
+  bool fused_now = false;                                  ///< this frame's detection was fused
+  cv::Point3d position{kNaN, kNaN, kNaN};                  ///< the bore's front centre, filtered (m)
+  cv::Vec3d velocity{kNaN, kNaN, kNaN};                    ///< its velocity relative to the camera (m/s)
+  cv::Matx33d position_covariance = cv::Matx33d::zeros();  ///< m^2, row-major
+  cv::Vec3d axis{kNaN, kNaN, kNaN};  ///< unit spool axis into the spool; NaN until a hole rim gave one
+  double axis_sigma = kNaN;          ///< rad, 1 sigma of the axis's direction (the larger slope's)
+  /// The puller's miss of the bore's axis at its front and at bore_length_max along it (m), and
+  /// the 1-sigma of the larger of the two (first-order propagation of the state covariance)
+  double front_miss = kNaN;
+  double back_miss = kNaN;
+  double miss_sigma = kNaN;
+  /// The filtered state clears the bore: in the insertion window, fused this frame, and each miss
+  /// plus track_aligned_sigma sigmas within t_f - aligned_margin, for track_confirm_frames frames
+  /// in a row
+  bool aligned = false;
+};
+
+/// Follows one spool over an approach. Feed it every frame's detection in order with the frame's
+/// stamp; it never switches silently to another spool: a new track starts only through `lost`.
+class SpoolTracker
+{
+public:
+  explicit SpoolTracker(const DetectorParams& params = DetectorParams());
+
+  /// Replaces the parameters (already validated, as SpoolDetector's); the track goes on.
+  void setParams(const DetectorParams& params);
+
+  /// One frame: `detection` as SpoolDetector::detect() gave it for a frame stamped `stamp` (s,
+  /// any epoch) from a camera of `camera` (the detector's: its focal length and image height
+  /// pick the error model). A stamp before the last one (a bag played again) or more than
+  /// kMaxGap after it restarts the search.
+  const TrackedSpool& update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera);
+
+  const TrackedSpool& current() const
+  {
+    return tracked_;
+  }
+
+  /// Drops the track (e.g. a new camera).
+  void reset();
+
+  /// Seconds between frames beyond which the prediction is worthless (a paused stream).
+  static constexpr double kMaxGap = 1.0;
+
+private:
+  using Vector6 = Eigen::Matrix<double, 6, 1>;
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
+
+  void start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
+  void predict(double dt);
+  /// Fuses the detection's position unless the gate refuses it; true when fused.
+  bool fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
+  void fuseAxis(const SpoolDetection& detection, const MeasurementNoise& noise);
+  /// Counts a refused detection; true when it and the one before agree with each other and are
+  /// the stronger evidence (another spool, or the track was wrong): the track is lost.
+  bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
+  void publish(bool fused);
+  void decideAligned();
+
+  DetectorParams params_;
+  TrackedSpool tracked_;
+  std::optional<double> last_stamp_;
+  bool active_ = false;
+  Vector6 x_ = Vector6::Zero();  ///< position (m), velocity (m/s)
+  Matrix6 p_ = Matrix6::Zero();
+  Eigen::Vector2d axis_ = Eigen::Vector2d::Zero();  ///< the axis's slopes (x/z, y/z)
+  Eigen::Matrix2d axis_p_ = Eigen::Matrix2d::Zero();
+  bool axis_known_ = false;
+  int axis_refused_ = 0;  ///< axis measurements refused in a row
+  int coasted_ = 0;       ///< frames in a row without a fused detection
+  int confirmed_ = 0;     ///< frames in a row whose filtered state cleared the bore
+  double support_ = 0.0;  ///< confidence of the last fused detection
+  int refuting_ = 0;      ///< refused detections in a row that agree with each other
+  cv::Point3d refuter_;   ///< the last refused detection's position
+  Eigen::Matrix3d refuter_cov_ = Eigen::Matrix3d::Zero();
+};
+
+/// `raw` with the tracked values in place of the per-frame ones, as the node publishes them with
+/// tracking on: position, distance (depth), range, lateral_offset, yaw (bearing of the bore's
+/// front centre from the puller axis, atan of lateral offset over depth), axis, axis_angle,
+/// axis_yaw and aligned from `track`; `detected` while a track holds the spool (tracking or
+/// coasting). A coasting frame's rims are not this frame's: flange and hole circles zeroed and
+/// hole_detected false. Without a track: `raw` with every number NaN and detected false.
+SpoolDetection trackedDetection(const SpoolDetection& raw, const TrackedSpool& track, const GeometryParams& geometry);
+
+}  // namespace spool_vision

@@ -1,0 +1,402 @@
+#include "spool_vision/spool_tracker.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "spool_vision/spool_geometry.h"
+
+namespace spool_vision
+{
+namespace
+{
+// The measured error model (docs/error_model.md): 1-sigma errors of a detection on the target
+// spool with a hole rim and its flange whole in view, by image height.
+struct ErrorRow
+{
+  double height;     // image rows
+  double radius_px;  // flange rim radius
+  double centre_px;  // the bore's front centre
+  double axis;       // rad, per slope of the spool axis
+};
+constexpr std::array<ErrorRow, 4> kErrorModel = {{
+    {120.0, 0.30, 0.20, 0.021},
+    {240.0, 0.50, 0.30, 0.014},
+    {480.0, 0.90, 0.50, 0.009},
+    {720.0, 1.30, 0.80, 0.007},
+}};
+// A flange with under 90% of its rim in view: its fit rests on an arc.
+constexpr double kCutFlangeFactor = 2.0;
+// Without a hole rim the flange's centre stands in for the bore's: up to f (R/Z)^2 sin(tilt) px
+// off (DESIGN.md §5), several px at 640x480.
+constexpr double kNoHoleCentreFactor = 6.0;
+constexpr double kCutFraction = 0.9;
+
+// Velocity sigma of a new track (m/s): a forklift approaches at up to ~0.3 m/s.
+constexpr double kInitialSpeedSigma = 0.5;
+
+ErrorRow interpolatedRow(int image_height)
+{
+  const double h = static_cast<double>(image_height);
+  if (h <= kErrorModel.front().height)
+    return kErrorModel.front();
+  for (std::size_t i = 1; i < kErrorModel.size(); ++i)
+  {
+    const ErrorRow& a = kErrorModel[i - 1];
+    const ErrorRow& b = kErrorModel[i];
+    if (h <= b.height)
+    {
+      const double t = (h - a.height) / (b.height - a.height);
+      return {h, a.radius_px + t * (b.radius_px - a.radius_px), a.centre_px + t * (b.centre_px - a.centre_px),
+              a.axis + t * (b.axis - a.axis)};
+    }
+  }
+  return kErrorModel.back();
+}
+
+Eigen::Vector3d toEigen(const cv::Point3d& p)
+{
+  return {p.x, p.y, p.z};
+}
+
+// Covariance (m^2) of a detection's position: the depth error runs along the ray through the
+// bore's centre (p = z (u, v, 1), Eq. 3.2 scales the whole ray), the centre's pixel error across it.
+Eigen::Matrix3d positionCovariance(const SpoolDetection& d, const MeasurementNoise& noise,
+                                   const CameraIntrinsics& camera)
+{
+  const Eigen::Vector3d p = toEigen(d.position);
+  const double z = p.z();
+  const Eigen::Vector3d ray = p / z;
+  const double r_px = d.flange.r_vertical > 0.0 ? d.flange.r_vertical : d.flange.r;
+  const double sigma_z = z * noise.radius_px / std::max(r_px, 1.0);
+  const double sigma_across = z * noise.centre_px / std::max(std::min(camera.fx, camera.fy), 1.0);
+  Eigen::Matrix3d r = sigma_z * sigma_z * ray * ray.transpose();
+  r(0, 0) += sigma_across * sigma_across;
+  r(1, 1) += sigma_across * sigma_across;
+  return r;
+}
+
+bool usable(const SpoolDetection& d)
+{
+  return d.detected && std::isfinite(d.position.x) && std::isfinite(d.position.y) && std::isfinite(d.position.z) &&
+         d.position.z > 0.0;
+}
+
+bool hasAxis(const SpoolDetection& d)
+{
+  return d.hole_detected && std::isfinite(d.axis[0]) && std::isfinite(d.axis[1]) && std::isfinite(d.axis[2]) &&
+         d.axis[2] > 0.0;
+}
+
+// Largest standard deviation of a 2-D vector with covariance `c`.
+double largestSigma(const Eigen::Matrix2d& c)
+{
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(c);
+  return std::sqrt(std::max(solver.eigenvalues().maxCoeff(), 0.0));
+}
+}  // namespace
+
+const char* toString(TrackState state)
+{
+  switch (state)
+  {
+    case TrackState::kSearching:
+      return "searching";
+    case TrackState::kTracking:
+      return "tracking";
+    case TrackState::kCoasting:
+      return "coasting";
+    case TrackState::kLost:
+      return "lost";
+  }
+  return "unknown";
+}
+
+MeasurementNoise measurementNoise(const SpoolDetection& d, int image_height, const TrackerParams& params)
+{
+  const ErrorRow row = interpolatedRow(image_height);
+  const bool cut = d.flange.visible_fraction < kCutFraction;
+  MeasurementNoise noise;
+  noise.radius_px = params.noise_scale * row.radius_px * (cut ? kCutFlangeFactor : 1.0);
+  noise.centre_px = params.noise_scale * row.centre_px * (d.hole_detected ? 1.0 : kNoHoleCentreFactor);
+  noise.axis = d.hole_detected ? params.noise_scale * row.axis * (cut ? kCutFlangeFactor : 1.0)
+                               : std::numeric_limits<double>::infinity();
+  return noise;
+}
+
+SpoolTracker::SpoolTracker(const DetectorParams& params) : params_(params) {}
+
+void SpoolTracker::setParams(const DetectorParams& params)
+{
+  params_ = params;
+}
+
+void SpoolTracker::reset()
+{
+  active_ = false;
+  axis_known_ = false;
+  last_stamp_.reset();
+  coasted_ = confirmed_ = refuting_ = 0;
+  tracked_ = TrackedSpool();
+}
+
+const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera)
+{
+  const bool time_jumped = last_stamp_ && (stamp < *last_stamp_ || stamp - *last_stamp_ > kMaxGap);
+  const double dt = last_stamp_ && !time_jumped ? stamp - *last_stamp_ : 0.0;
+  last_stamp_ = stamp;
+  if (time_jumped || tracked_.state == TrackState::kLost)
+  {
+    // A bag played again, a paused stream, or a track that ended: search afresh.
+    active_ = false;
+    axis_known_ = false;
+  }
+  tracked_.rejected_now = false;
+  tracked_.fused_now = false;
+  const MeasurementNoise noise = measurementNoise(detection, camera.height, params_.tracker);
+
+  if (!active_)
+  {
+    if (usable(detection) && detection.hole_detected)
+    {
+      start(detection, noise, camera);
+      publish(true);
+    }
+    else
+    {
+      tracked_ = TrackedSpool();
+    }
+    return tracked_;
+  }
+
+  predict(dt);
+  bool fused = false;
+  if (usable(detection))
+  {
+    fused = fusePosition(detection, noise, camera);
+    if (fused)
+    {
+      fuseAxis(detection, noise);
+      support_ = detection.confidence;
+      refuting_ = 0;
+    }
+    else if (refuteTrack(detection, noise, camera))
+    {
+      tracked_.state = TrackState::kLost;
+      tracked_.aligned = false;
+      confirmed_ = 0;
+      return tracked_;
+    }
+  }
+  coasted_ = fused ? 0 : coasted_ + 1;
+  if (coasted_ > params_.tracker.max_coast)
+  {
+    tracked_.state = TrackState::kLost;
+    tracked_.aligned = false;
+    confirmed_ = 0;
+    return tracked_;
+  }
+  publish(fused);
+  return tracked_;
+}
+
+void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera)
+{
+  active_ = true;
+  x_.setZero();
+  x_.head<3>() = toEigen(detection.position);
+  p_.setZero();
+  p_.topLeftCorner<3, 3>() = positionCovariance(detection, noise, camera);
+  p_.bottomRightCorner<3, 3>() = kInitialSpeedSigma * kInitialSpeedSigma * Eigen::Matrix3d::Identity();
+  axis_known_ = false;
+  fuseAxis(detection, noise);
+  support_ = detection.confidence;
+  coasted_ = confirmed_ = refuting_ = 0;
+  tracked_ = TrackedSpool();
+  tracked_.age = 0;
+}
+
+void SpoolTracker::predict(double dt)
+{
+  Matrix6 f = Matrix6::Identity();
+  f.topRightCorner<3, 3>() = dt * Eigen::Matrix3d::Identity();
+  // White-noise acceleration, per axis [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] q.
+  const double q = params_.tracker.acceleration * params_.tracker.acceleration;
+  Matrix6 noise = Matrix6::Zero();
+  noise.topLeftCorner<3, 3>() = q * dt * dt * dt * dt / 4.0 * Eigen::Matrix3d::Identity();
+  noise.topRightCorner<3, 3>() = q * dt * dt * dt / 2.0 * Eigen::Matrix3d::Identity();
+  noise.bottomLeftCorner<3, 3>() = noise.topRightCorner<3, 3>();
+  noise.bottomRightCorner<3, 3>() = q * dt * dt * Eigen::Matrix3d::Identity();
+  x_ = f * x_;
+  p_ = f * p_ * f.transpose() + noise;
+  if (axis_known_)
+    axis_p_ += params_.tracker.axis_drift * params_.tracker.axis_drift * dt * Eigen::Matrix2d::Identity();
+}
+
+bool SpoolTracker::fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise,
+                                const CameraIntrinsics& camera)
+{
+  const Eigen::Vector3d innovation = toEigen(detection.position) - x_.head<3>();
+  const Eigen::Matrix3d s = p_.topLeftCorner<3, 3>() + positionCovariance(detection, noise, camera);
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(s);
+  const double distance2 = innovation.dot(ldlt.solve(innovation));
+  if (!(distance2 <= params_.tracker.gate * params_.tracker.gate))
+    return false;
+  // K = P H^T S^-1 with H = [I 0]; Joseph form keeps P symmetric and positive.
+  const Eigen::Matrix<double, 6, 3> k = ldlt.solve(p_.topRows<3>()).transpose();
+  x_ += k * innovation;
+  Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
+  h.leftCols<3>().setIdentity();
+  const Matrix6 i_kh = Matrix6::Identity() - k * h;
+  p_ = i_kh * p_ * i_kh.transpose() + k * (s - p_.topLeftCorner<3, 3>()) * k.transpose();
+  return true;
+}
+
+void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNoise& noise)
+{
+  if (!hasAxis(detection) || !std::isfinite(noise.axis))
+    return;
+  const Eigen::Vector2d slopes(detection.axis[0] / detection.axis[2], detection.axis[1] / detection.axis[2]);
+  const Eigen::Matrix2d r = noise.axis * noise.axis * Eigen::Matrix2d::Identity();
+  if (!axis_known_)
+  {
+    axis_ = slopes;
+    axis_p_ = r;
+    axis_known_ = true;
+    axis_refused_ = 0;
+    return;
+  }
+  const Eigen::Vector2d innovation = slopes - axis_;
+  const Eigen::Matrix2d s = axis_p_ + r;
+  // An axis far off the track's (a fit that followed a label) is not fused; the position was.
+  // Refused twice in a row, the track's axis is the stale one (the robot turned faster than
+  // track_axis_drift allows): it starts again from this measurement.
+  if (!(innovation.dot(s.ldlt().solve(innovation)) <= params_.tracker.gate * params_.tracker.gate))
+  {
+    if (++axis_refused_ >= 2)
+    {
+      axis_ = slopes;
+      axis_p_ = r;
+      axis_refused_ = 0;
+      confirmed_ = 0;
+    }
+    return;
+  }
+  axis_refused_ = 0;
+  const Eigen::Matrix2d k = axis_p_ * s.inverse();
+  axis_ += k * innovation;
+  axis_p_ = (Eigen::Matrix2d::Identity() - k) * axis_p_;
+}
+
+bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise,
+                               const CameraIntrinsics& camera)
+{
+  ++tracked_.rejected;
+  tracked_.rejected_now = true;
+  const Eigen::Matrix3d cov = positionCovariance(detection, noise, camera);
+  bool agrees = false;
+  if (refuting_ > 0)
+  {
+    // Two refused detections of one other thing agree with each other within both their errors
+    // and what the camera can have moved in between (as much as the track's own uncertainty).
+    const Eigen::Vector3d d = toEigen(detection.position) - toEigen(refuter_);
+    const Eigen::Matrix3d s = cov + refuter_cov_ + p_.topLeftCorner<3, 3>();
+    agrees = d.dot(s.ldlt().solve(d)) <= params_.tracker.gate * params_.tracker.gate;
+  }
+  refuting_ = agrees ? refuting_ + 1 : 1;
+  refuter_ = detection.position;
+  refuter_cov_ = cov;
+  // The stronger evidence: a hole rim at least as well supported as the track's last fused one.
+  return refuting_ >= 2 && detection.hole_detected && detection.confidence >= support_;
+}
+
+void SpoolTracker::publish(bool fused)
+{
+  tracked_.state = fused ? TrackState::kTracking : TrackState::kCoasting;
+  tracked_.fused_now = fused;
+  ++tracked_.age;
+  tracked_.position = {x_(0), x_(1), x_(2)};
+  tracked_.velocity = {x_(3), x_(4), x_(5)};
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      tracked_.position_covariance(r, c) = p_(r, c);
+  if (axis_known_)
+  {
+    const Eigen::Vector3d n = Eigen::Vector3d(axis_.x(), axis_.y(), 1.0).normalized();
+    tracked_.axis = {n.x(), n.y(), n.z()};
+    tracked_.axis_sigma = largestSigma(axis_p_);
+  }
+  else
+  {
+    tracked_.axis = {TrackedSpool::kNaN, TrackedSpool::kNaN, TrackedSpool::kNaN};
+    tracked_.axis_sigma = TrackedSpool::kNaN;
+  }
+  decideAligned();
+}
+
+void SpoolTracker::decideAligned()
+{
+  const GeometryParams& g = params_.geometry;
+  tracked_.front_miss = tracked_.back_miss = tracked_.miss_sigma = TrackedSpool::kNaN;
+  bool clears = false;
+  if (axis_known_)
+  {
+    pullerMiss(g, tracked_.position, tracked_.axis, tracked_.front_miss, tracked_.back_miss);
+    // The miss vectors are linear in the position's x, y and the axis's slopes: at the front the
+    // position's covariance, at the back that plus bore_length_max^2 times the slopes'. The
+    // largest direction's sigma bounds the miss's (its own direction is unknown near zero).
+    const Eigen::Matrix2d front_cov = p_.topLeftCorner<2, 2>();
+    const Eigen::Matrix2d back_cov = front_cov + g.bore_length_max * g.bore_length_max * axis_p_;
+    const double front_sigma = largestSigma(front_cov);
+    const double back_sigma = largestSigma(back_cov);
+    tracked_.miss_sigma = std::max(front_sigma, back_sigma);
+    const double clearance = (g.hole_diameter - g.puller_diameter) / 2.0 - g.aligned_margin;
+    const double k = params_.tracker.aligned_sigma;
+    const double depth = tracked_.position.z;
+    clears = tracked_.fused_now && depth >= g.aligned_distance_min && depth <= g.aligned_distance_max &&
+             tracked_.front_miss + k * front_sigma <= clearance && tracked_.back_miss + k * back_sigma <= clearance;
+  }
+  confirmed_ = clears ? confirmed_ + 1 : 0;
+  tracked_.aligned = confirmed_ >= params_.tracker.confirm_frames;
+}
+
+SpoolDetection trackedDetection(const SpoolDetection& raw, const TrackedSpool& track, const GeometryParams& geometry)
+{
+  SpoolDetection out = raw;
+  const bool held = track.state == TrackState::kTracking || track.state == TrackState::kCoasting;
+  out.detected = held;
+  out.aligned = held && track.aligned;
+  if (!held || !track.fused_now)
+  {
+    // Not this frame's spool: its rims and per-frame tests say nothing about the track.
+    out.hole_detected = false;
+    out.overlapped = false;
+    out.lens_detected = false;
+    out.flange = Circle();
+    out.hole = Circle();
+    out.lens = Circle();
+    out.confidence = 0.0;
+  }
+  if (!held)
+  {
+    const double nan = SpoolDetection::kNaN;
+    out.distance = out.range = out.yaw = out.lateral_offset = out.axis_angle = out.axis_yaw = nan;
+    out.position = {nan, nan, nan};
+    out.axis = {nan, nan, nan};
+    return out;
+  }
+  out.position = track.position;
+  out.distance = track.position.z;
+  out.range = std::sqrt(track.position.dot(track.position));
+  out.lateral_offset = track.position.x - geometry.puller_offset_x;
+  out.yaw = std::atan2(out.lateral_offset, track.position.z);
+  out.axis = track.axis;
+  out.axis_angle =
+      std::isfinite(track.axis[2]) ? std::acos(std::clamp(track.axis[2], -1.0, 1.0)) : SpoolDetection::kNaN;
+  out.axis_yaw = std::isfinite(track.axis[2]) ? std::atan2(track.axis[0], track.axis[2]) : SpoolDetection::kNaN;
+  return out;
+}
+
+}  // namespace spool_vision
