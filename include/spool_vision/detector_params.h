@@ -169,6 +169,9 @@ struct TrackerParams
   /// aligned needs each of the puller's misses plus this many standard deviations within t_f
   double aligned_sigma = 3.0;
   double noise_scale = 1.0;  ///< multiplies the measured error model's sigmas (docs/error_model.md)
+  /// frames: while tracking the flange is searched in the predicted window, and in the whole
+  /// frame every this many frames (1 = always the whole frame)
+  int full_search_interval = 10;
 };
 
 struct DetectorParams

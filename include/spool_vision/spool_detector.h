@@ -51,6 +51,14 @@ public:
   /// `median`, `average` and the thesis' binarization, morphology and area opening, which OpenCV
   /// may split among its threads. One detector per thread; different detectors share nothing.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format);
+  /// detect() with the flange searched only in `window` (centres and radii; nothing else
+  /// changes): while a track holds the spool, a concentric rib ring or a neighbour outside the
+  /// window cannot be taken for its flange, and the vote spans a few radii instead of the whole
+  /// working range. Without `window`, detect() exactly.
+  SpoolDetection detect(const cv::Mat& image, PixelFormat format, const std::optional<FlangeWindow>& window);
+  /// The camera the last frame was measured with (the thesis camera when none fit the frame);
+  /// the thesis camera at 640x480 before any frame.
+  CameraIntrinsics camera() const;
 
   /// Intermediate results of the last frame, for overlays and debugging.
   const cv::Mat& preprocessed() const

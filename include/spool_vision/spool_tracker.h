@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "spool_vision/detector_params.h"
+#include "spool_vision/spool_detector.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision
@@ -93,6 +94,17 @@ public:
     return tracked_;
   }
 
+  /// Where the followed spool's flange will be in the frame stamped `stamp` (s): the prediction
+  /// projected through `camera`'s pinhole (undistorted pixels). Centre margin: 3 sigma of the
+  /// projected position plus the offset of a turned rim's ellipse centre from the projected
+  /// centre, f (R/Z)^2 sin(max_view_angle); radius margin: 3 sigma of the depth plus
+  /// kRadiusSpread (a rib ring is 60-75% of the flange's size, a neighbour's rim elsewhere).
+  /// nullopt without a track (searching, lost), or when the prediction is not ahead of the camera.
+  std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera) const;
+
+  /// Fraction of the predicted radius the flange window's radius margin adds.
+  static constexpr double kRadiusSpread = 0.1;
+
   /// Drops the track (e.g. a new camera).
   void reset();
 
@@ -130,6 +142,43 @@ private:
   int refuting_ = 0;      ///< refused detections in a row that agree with each other
   cv::Point3d refuter_;   ///< the last refused detection's position
   Eigen::Matrix3d refuter_cov_ = Eigen::Matrix3d::Zero();
+};
+
+/// One frame through the detector and the tracker, as the node and spool_detect --track run it.
+struct TrackedFrame
+{
+  SpoolDetection raw;        ///< the detector's own result for the frame
+  TrackedSpool track;        ///< the tracker's state after it
+  SpoolDetection published;  ///< trackedDetection(raw, track): what goes out
+  bool full_search = true;   ///< the flange was searched in the whole frame
+};
+
+/// A SpoolDetector followed by a SpoolTracker. While a track holds the spool the flange is
+/// searched only in the tracker's window, with a whole-frame search every
+/// track_full_search_interval frames, and again in the same frame when the window finds nothing.
+class TrackingDetector
+{
+public:
+  explicit TrackingDetector(const DetectorParams& params = DetectorParams());
+
+  /// Both stages' parameters (validated by SpoolDetector; throws ParamError, keeping the old ones).
+  void setParams(const DetectorParams& params);
+  SpoolDetector& detector()
+  {
+    return detector_;
+  }
+  SpoolTracker& tracker()
+  {
+    return tracker_;
+  }
+
+  /// The frame `image` stamped `stamp` (s). Throws as SpoolDetector::detect().
+  TrackedFrame process(const cv::Mat& image, PixelFormat format, double stamp);
+
+private:
+  SpoolDetector detector_;
+  SpoolTracker tracker_;
+  int since_full_search_ = 0;
 };
 
 /// `raw` with the tracked values in place of the per-frame ones, as the node publishes them with

@@ -125,6 +125,16 @@ inline int matTypeOf(PixelFormat format)
   return -1;
 }
 
+/// Where a followed spool's flange will be (SpoolTracker::flangeWindow), for
+/// SpoolDetector::detect(): pixels of the undistorted image (the frame without lens distortion).
+struct FlangeWindow
+{
+  cv::Point2d centre;          ///< the flange rim's centre (px)
+  double centre_margin = 0.0;  ///< px either way, in x and y
+  double radius = 0.0;         ///< the flange rim's vertical semi-axis (px)
+  double radius_margin = 0.0;  ///< px either way
+};
+
 /// What the detector reports for one frame. Undefined numbers are NaN, never stale values.
 struct SpoolDetection
 {

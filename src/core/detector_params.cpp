@@ -209,6 +209,9 @@ std::vector<ParamSpec> buildSpecs()
              "aligned needs each puller miss plus this many standard deviations within t_f - aligned_margin"),
       number("track_noise_scale", FIELD(tracker.noise_scale), 0.1, 10.0, "",
              "multiplies the measured error model's sigmas (docs/error_model.md)"),
+      number("track_full_search_interval", FIELD(tracker.full_search_interval), 1, 1000, "frames",
+             "while tracking the flange is searched where the track predicts it, the whole frame every this many "
+             "frames (1 = always)"),
   };
 }
 #undef FIELD

@@ -78,7 +78,18 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
   return *geometry_;
 }
 
+CameraIntrinsics SpoolDetector::camera() const
+{
+  return geometry_ ? geometry_->camera() : CameraIntrinsics::thesisDefault(640, 480);
+}
+
 SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
+{
+  return detect(image, format, std::nullopt);
+}
+
+SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
+                                     const std::optional<FlangeWindow>& window)
 {
   if (image.empty())
     throw std::invalid_argument("empty image");
@@ -98,8 +109,16 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format)
   double hole_min = 0.0;
   double hole_max = 0.0;
   geometry.radiusRanges(flange_min, flange_max, hole_min, hole_max);
-  const HoughSearch flange_search = houghSearch(hp, hp.flange_polarity, hp.sensitivity, hp.flange_radius_min,
-                                                flange_min, hp.flange_radius_max, flange_max);
+  HoughSearch flange_search = houghSearch(hp, hp.flange_polarity, hp.sensitivity, hp.flange_radius_min, flange_min,
+                                          hp.flange_radius_max, flange_max);
+  if (window)
+  {
+    flange_search.r_min = std::max(1.0, window->radius - window->radius_margin);
+    flange_search.r_max = std::max(flange_search.r_min + 1.0, window->radius + window->radius_margin);
+    flange_search.center_window =
+        cv::Rect2d(window->centre.x - window->centre_margin, window->centre.y - window->centre_margin,
+                   2.0 * window->centre_margin, 2.0 * window->centre_margin);
+  }
   const HoughSearch hole_search = houghSearch(hp, hp.hole_polarity, hp.hole_sensitivity, hp.hole_radius_min, hole_min,
                                               hp.hole_radius_max, hole_max);
   const cv::Point2d reference = geometry.reference(geometry.nominalDistance());

@@ -362,6 +362,67 @@ void SpoolTracker::decideAligned()
   tracked_.aligned = confirmed_ >= params_.tracker.confirm_frames;
 }
 
+std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const CameraIntrinsics& camera) const
+{
+  if (!active_ || tracked_.state == TrackState::kLost || !last_stamp_)
+    return std::nullopt;
+  const double dt = stamp - *last_stamp_;
+  if (dt < 0.0 || dt > kMaxGap)
+    return std::nullopt;
+  const Eigen::Vector3d p = x_.head<3>() + dt * x_.tail<3>();
+  const double z = p.z();
+  if (!(z > 0.05))
+    return std::nullopt;
+  // The prediction's covariance (the position block of F P F^T + Q) is close enough to P's
+  // position block grown by the velocity's over dt; the margins are generous multiples anyway.
+  const Eigen::Matrix3d cov = p_.topLeftCorner<3, 3>() + dt * dt * p_.bottomRightCorner<3, 3>();
+  const double f = std::max(camera.fx, camera.fy);
+  const double sigma_across = std::sqrt(std::max(cov(0, 0), cov(1, 1))) / z;  // rad
+  const double sigma_depth = std::sqrt(cov(2, 2)) / z;                        // relative
+  const double rim = params_.geometry.flange_diameter / 2.0;
+  FlangeWindow window;
+  window.centre = {camera.fx * p.x() / z + camera.cx, camera.fy * p.y() / z + camera.cy};
+  window.radius = camera.fy * rim / z;
+  window.centre_margin =
+      3.0 * f * sigma_across + f * (rim / z) * (rim / z) * std::sin(params_.matcher.max_view_angle) + 2.0;
+  window.radius_margin = window.radius * (3.0 * sigma_depth + kRadiusSpread);
+  return window;
+}
+
+TrackingDetector::TrackingDetector(const DetectorParams& params) : detector_(params), tracker_(params) {}
+
+void TrackingDetector::setParams(const DetectorParams& params)
+{
+  detector_.setParams(params);
+  tracker_.setParams(params);
+}
+
+TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format, double stamp)
+{
+  TrackedFrame frame;
+  const int interval = detector_.params().tracker.full_search_interval;
+  std::optional<FlangeWindow> window;
+  if (since_full_search_ + 1 < interval)
+    window = tracker_.flangeWindow(stamp, detector_.camera());
+  if (window)
+  {
+    frame.raw = detector_.detect(image, format, window);
+    // Nothing where the spool should be: it moved more than the model allows, or the window
+    // was wrong. The whole frame decides, in this frame.
+    frame.full_search = !frame.raw.detected;
+  }
+  if (!window || frame.full_search)
+  {
+    const double windowed_ms = window ? frame.raw.time_ms : 0.0;
+    frame.raw = detector_.detect(image, format);
+    frame.raw.time_ms += windowed_ms;
+  }
+  since_full_search_ = frame.full_search ? 0 : since_full_search_ + 1;
+  frame.track = tracker_.update(frame.raw, stamp, detector_.camera());
+  frame.published = trackedDetection(frame.raw, frame.track, detector_.params().geometry);
+  return frame;
+}
+
 SpoolDetection trackedDetection(const SpoolDetection& raw, const TrackedSpool& track, const GeometryParams& geometry)
 {
   SpoolDetection out = raw;

@@ -14,6 +14,7 @@
 
 #include "spool_vision/io/config_io.h"
 #include "spool_vision/spool_detector.h"
+#include "spool_vision/spool_tracker.h"
 
 using spool_vision::CameraIntrinsics;
 using spool_vision::Circle;
@@ -172,4 +173,78 @@ TEST(HeldoutCase, Pos031AsTheWebcamGivesItAt320x240)
   const cv::Mat image = cv::imread(kCases + "pos_031_320x240.png", cv::IMREAD_COLOR);
   ASSERT_EQ(image.cols, 320);
   expectTarget("pos_031", image, 1.0);
+}
+
+// The last frames of an approach from heldout_v2 (another renderer, a C270 lens, a ribbed face
+// that overfills the frame at 59-55 cm, about 20 cm/s): alone, frames 36 and 37 report a rib ring
+// as the flange, 0.87 and 0.85 m for 0.56 and 0.55. Followed in order (15 Hz), the track keeps
+// the spool: every published depth within 2% of the truth, never a jump.
+struct SequenceFrame
+{
+  std::string name;
+  double depth;  ///< m, truth
+  spool_vision::TrackedFrame result;
+};
+
+std::vector<SequenceFrame> followSeq2(int full_search_interval)
+{
+  const std::string cases = std::string(SPOOL_TEST_DATA_DIR) + "/heldout_v2/";
+  DetectorParams params;
+  spool_vision::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/default.yaml", params);
+  params.tracker.full_search_interval = full_search_interval;
+  spool_vision::TrackingDetector tracking(params);
+  tracking.detector().setCamera(spool_vision::loadCameraInfoYaml(cases + "camera_640.yaml"));
+  std::ifstream truth(cases + "truth.jsonl");
+  std::vector<SequenceFrame> frames;
+  for (std::string line; std::getline(truth, line);)
+  {
+    const YAML::Node frame = YAML::Load(line);
+    const std::string name = frame["name"].as<std::string>();
+    const cv::Mat image = cv::imread(cases + name + ".png", cv::IMREAD_COLOR);
+    EXPECT_FALSE(image.empty()) << name;
+    if (image.empty())
+      break;
+    const double stamp = static_cast<double>(frames.size()) / 15.0;
+    frames.push_back(
+        {name, frame["target"]["distance_m"].as<double>(), tracking.process(image, PixelFormat::kBgr8, stamp)});
+  }
+  EXPECT_EQ(frames.size(), 4u);
+  return frames;
+}
+
+std::string describe(const SequenceFrame& f)
+{
+  return f.name + ": " + spool_vision::toString(f.result.track.state) + ", raw " +
+         std::to_string(f.result.raw.distance) + " m, published " + std::to_string(f.result.published.distance) +
+         " m, truth " + std::to_string(f.depth) + " m";
+}
+
+TEST(HeldoutSequence, TheTrackedWindowMeasuresTheFlangeNotTheRibRing)
+{
+  // Searched where the track puts the flange (radius within 10% and 3 sigma), the rib ring is
+  // not a candidate: the detector itself measures the flange on every frame.
+  for (const SequenceFrame& f : followSeq2(DetectorParams().tracker.full_search_interval))
+  {
+    SCOPED_TRACE(describe(f));
+    EXPECT_EQ(f.result.track.state, spool_vision::TrackState::kTracking);
+    EXPECT_NEAR(f.result.raw.distance, f.depth, 0.02 * f.depth);
+    EXPECT_NEAR(f.result.published.distance, f.depth, 0.02 * f.depth);
+  }
+}
+
+TEST(HeldoutSequence, TheGateRefusesTheRibRingsOfAWholeFrameSearch)
+{
+  // Every frame searched whole (track_full_search_interval 1): the rib rings come back, and the
+  // gate refuses them; the prediction is published, within 2%, and the track is kept.
+  const std::vector<SequenceFrame> frames = followSeq2(1);
+  for (const SequenceFrame& f : frames)
+  {
+    SCOPED_TRACE(describe(f));
+    EXPECT_TRUE(f.result.published.detected);
+    EXPECT_NEAR(f.result.published.distance, f.depth, 0.02 * f.depth);
+    EXPECT_NE(f.result.track.state, spool_vision::TrackState::kLost);
+  }
+  ASSERT_EQ(frames.size(), 4u);
+  EXPECT_GT(frames[2].result.raw.distance, 0.8);  // the rib ring, as the frame alone gives it
+  EXPECT_EQ(frames[3].result.track.rejected, 2);
 }
