@@ -55,6 +55,21 @@ JsonObject& JsonObject::add(const std::string& k, bool value)
   return *this;
 }
 
+JsonObject& JsonObject::addArray(const std::string& k, const std::vector<double>& values)
+{
+  key(k);
+  body_ += "[";
+  for (std::size_t i = 0; i < values.size(); ++i)
+  {
+    char buf[32] = "null";
+    if (std::isfinite(values[i]))
+      std::snprintf(buf, sizeof(buf), "%.6g", values[i]);
+    body_ += (i ? ", " : "") + std::string(buf);
+  }
+  body_ += "]";
+  return *this;
+}
+
 JsonObject& JsonObject::addRaw(const std::string& k, const std::string& json)
 {
   key(k);

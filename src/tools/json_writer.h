@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace spool_vision
 {
@@ -18,6 +19,9 @@ public:
   JsonObject& add(const std::string& key, int value);
   JsonObject& add(const std::string& key, bool value);
   /// Inserts an already-rendered JSON value (an object, or "null").
+  /// A JSON array of numbers in 6 significant digits (covariances span orders of magnitude); a
+  /// value that is not finite is null.
+  JsonObject& addArray(const std::string& key, const std::vector<double>& values);
   JsonObject& addRaw(const std::string& key, const std::string& json);
   std::string str() const
   {

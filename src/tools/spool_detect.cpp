@@ -16,6 +16,7 @@
 #include "spool_vision/io/config_io.h"
 #include "spool_vision/overlay.h"
 #include "spool_vision/spool_detector.h"
+#include "spool_vision/spool_tracker.h"
 
 namespace fs = std::filesystem;
 using spool_vision::JsonObject;
@@ -23,14 +24,21 @@ using spool_vision::JsonObject;
 namespace
 {
 const char* const kUsage =
-    "usage: spool_detect [--config FILE] [--camera-info FILE] [--mode mcht|cht] [--overlay DIR] PATH...\n"
-    "  PATH       an image (png, jpg, bmp) or a folder of images\n"
+    "usage: spool_detect [--config FILE] [--camera-info FILE] [--mode mcht|cht] [--overlay DIR]\n"
+    "                    [--track] [--rate HZ] PATH...\n"
+    "       spool_detect [options] --stdin\n"
+    "  PATH       an image (png, jpg, bmp) or a folder of images (in name order)\n"
     "  --config   parameter YAML (default: built-in defaults = config/default.yaml)\n"
     "  --camera-info  ROS camera-calibration YAML: K and D for raw frames (plumb_bob,\n"
     "             rational_polynomial), P when D is zero (rectified); default: the thesis camera\n"
     "  --mode     mcht (concentric constraint, default) or cht (plain CHT, for comparison)\n"
     "  --overlay  write DIR/<image name>.png: the image with what the detector saw (flange,\n"
     "             hole, reference, distance, yaw, state); DIR is created if missing\n"
+    "  --track    follow one spool over the images in the order given (SpoolTracker): the\n"
+    "             tracked values, plus track_state, track_age, raw_distance, position_covariance\n"
+    "  --stdin    read one image path per line from standard input and answer each with one JSON\n"
+    "             line at once, the tracker's state kept between lines (implies --track)\n"
+    "  --rate     frames per second the images were taken at, for the tracker (default 30)\n"
     "Prints one JSON object per image on stdout. Exit: 0 ok, 1 an image failed, 2 bad option/config.\n";
 
 bool isImage(const fs::path& p)
@@ -79,22 +87,31 @@ struct Options
   std::string mode;
   std::string overlay;
   std::vector<std::string> paths;
+  bool track = false;
+  bool from_stdin = false;
+  double rate = 30.0;  ///< Hz: frame i is stamped i / rate
 };
 
 Options parseOptions(int argc, char** argv)
 {
-  const spool_vision::cli::CommandLine line(argc, argv, {"--config", "--camera-info", "--mode", "--overlay"}, kUsage,
-                                            /*allow_positional=*/true);
-  if (line.positional().empty())
+  const spool_vision::cli::CommandLine line(argc, argv, {"--config", "--camera-info", "--mode", "--overlay", "--rate"},
+                                            kUsage, /*allow_positional=*/true, {"--track", "--stdin"});
+  Options options{line.text("--config"), line.text("--camera-info"),
+                  line.text("--mode"),   line.text("--overlay"),
+                  line.positional(),     line.has("--track") || line.has("--stdin"),
+                  line.has("--stdin"),   line.positiveNumber("--rate", 30.0)};
+  if (options.from_stdin && !options.paths.empty())
+    throw spool_vision::cli::UsageError("--stdin reads the image paths from standard input: give no PATH");
+  if (!options.from_stdin && options.paths.empty())
     throw spool_vision::cli::UsageError("no PATH given");
-  return {line.text("--config"), line.text("--camera-info"), line.text("--mode"), line.text("--overlay"),
-          line.positional()};
+  return options;
 }
 
 // The detector of --config, --mode and --camera-info (`params`, `camera`: what they set); a
 // file or value they name that cannot be used is a usage error. Makes the --overlay folder.
 void setUp(const Options& options, spool_vision::DetectorParams& params,
-           std::optional<spool_vision::CameraIntrinsics>& camera, std::optional<spool_vision::SpoolDetector>& detector)
+           std::optional<spool_vision::CameraIntrinsics>& camera,
+           std::optional<spool_vision::TrackingDetector>& detector)
 {
   try
   {
@@ -111,7 +128,7 @@ void setUp(const Options& options, spool_vision::DetectorParams& params,
     throw spool_vision::cli::UsageError(e.what(), /*show_usage=*/false);
   }
   if (camera)
-    detector->setCamera(*camera);
+    detector->detector().setCamera(*camera);
   if (!options.overlay.empty())
   {
     std::error_code ec;
@@ -140,6 +157,9 @@ void addDetection(const spool_vision::ImageFile& file, const spool_vision::Spool
               d.detected
                   ? JsonObject().add("x", d.position.x, 5).add("y", d.position.y, 5).add("z", d.position.z, 5).str()
                   : "null")
+      .addRaw("axis", std::isfinite(d.axis[2])
+                          ? JsonObject().add("x", d.axis[0], 5).add("y", d.axis[1], 5).add("z", d.axis[2], 5).str()
+                          : "null")
       .add("axis_angle", d.axis_angle, 5)
       .add("axis_yaw", d.axis_yaw, 5)
       .addRaw("flange", circleJson(d.detected, d.flange))
@@ -150,25 +170,47 @@ void addDetection(const spool_vision::ImageFile& file, const spool_vision::Spool
       .add("time_ms", d.time_ms, 3);
 }
 
+// The tracker's fields, after the tracked detection's.
+void addTrack(const spool_vision::TrackedFrame& frame, JsonObject& out)
+{
+  const spool_vision::TrackedSpool& t = frame.track;
+  out.add("track_state", spool_vision::toString(t.state))
+      .add("track_age", t.age)
+      .add("rejected", t.rejected)
+      .add("raw_distance", frame.raw.detected ? frame.raw.distance : spool_vision::SpoolDetection::kNaN);
+  if (frame.published.detected)
+    out.addArray("position_covariance", std::vector<double>(t.position_covariance.val, t.position_covariance.val + 9));
+  else
+    out.addRaw("position_covariance", "null");
+  out.add("axis_sigma", t.axis_sigma, 5).add("full_search", frame.full_search);
+}
+
 int run(int argc, char** argv)
 {
   const Options options = parseOptions(argc, argv);
   spool_vision::DetectorParams params;
   std::optional<spool_vision::CameraIntrinsics> camera;
-  std::optional<spool_vision::SpoolDetector> detector;
+  std::optional<spool_vision::TrackingDetector> detector;
   setUp(options, params, camera, detector);
 
   bool any_failed = false;
   bool fallback_said = false;
-  for (const auto& path : expand(options.paths))
+  int frame_index = 0;
+  auto process = [&](const std::string& path)
   {
     JsonObject out;
     out.add("image", path);
     try
     {
       const spool_vision::ImageFile file = spool_vision::readImageFile(path);
-      const spool_vision::SpoolDetection d = detector->detect(file.image, file.format);
-      if (detector->usingFallbackCamera() && !fallback_said)
+      spool_vision::TrackedFrame frame;
+      if (options.track)
+        frame = detector->process(file.image, file.format, frame_index / options.rate);
+      else
+        frame.published = detector->detector().detect(file.image, file.format);
+      ++frame_index;
+      const spool_vision::SpoolDetection& d = frame.published;
+      if (detector->detector().usingFallbackCamera() && !fallback_said)
       {
         std::cerr << "spool_detect: " << (camera ? "camera info does not match the image size; " : "no camera info; ")
                   << "using the thesis camera (f = " << params.geometry.fallback_focal_length
@@ -176,6 +218,8 @@ int run(int argc, char** argv)
         fallback_said = true;
       }
       addDetection(file, d, out);
+      if (options.track)
+        addTrack(frame, out);
       if (!options.overlay.empty())
       {
         // Same name as the image, as png: lossless, so the thin lines and text stay sharp.
@@ -190,7 +234,18 @@ int run(int argc, char** argv)
       out.add("error", e.what());
       any_failed = true;
     }
-    std::cout << out.str() << std::endl;
+    std::cout << out.str() << std::endl;  // flushed: a program driving --stdin waits for it
+  };
+  if (options.from_stdin)
+  {
+    for (std::string path; std::getline(std::cin, path);)
+      if (!path.empty())
+        process(path);
+  }
+  else
+  {
+    for (const auto& path : expand(options.paths))
+      process(path);
   }
   return any_failed ? 1 : 0;
 }

@@ -9,6 +9,10 @@
 #include <string>
 #include <vector>
 
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -190,4 +194,106 @@ TEST_F(SpoolDetectCli, OverlayFolderThatCannotBeMadeExitsTwo)
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.errors.find("--overlay"), std::string::npos) << run.errors;
   EXPECT_TRUE(run.lines.empty());
+}
+
+namespace
+{
+// Frames of a drawn approach at 20 cm/s and 30 Hz, from 0.9 m, named in order.
+std::vector<std::string> writeApproach(const fs::path& dir, int count)
+{
+  fs::create_directories(dir);
+  const auto vga = CameraIntrinsics::thesisDefault(640, 480);
+  std::vector<std::string> paths;
+  for (int i = 0; i < count; ++i)
+  {
+    char name[32];
+    std::snprintf(name, sizeof(name), "frame_%03d.png", i);
+    paths.push_back((dir / name).string());
+    cv::imwrite(paths.back(), drawScene({640, 480}, {spoolAt(vga, 0.9 - 0.2 * i / 30.0, 0.0, 0.06)}));
+  }
+  return paths;
+}
+
+// A field's text after "key": (to the next ',' or '}'), for the tracker's words and counts.
+std::string field(const std::string& line, const std::string& key)
+{
+  const auto at = line.find("\"" + key + "\": ");
+  if (at == std::string::npos)
+    return "";
+  const auto start = at + key.size() + 4;
+  return line.substr(start, line.find_first_of(",}", start) - start);
+}
+}  // namespace
+
+TEST_F(SpoolDetectCli, TrackFollowsTheImagesInOrderAndAddsItsFields)
+{
+  writeApproach(dir_ / "approach", 6);
+  const CliRun run = spoolDetect("--track " + (dir_ / "approach").string());
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  ASSERT_EQ(run.lines.size(), 6u);
+  for (std::size_t i = 0; i < run.lines.size(); ++i)
+  {
+    const std::string& line = run.lines[i];
+    SCOPED_TRACE(line);
+    EXPECT_EQ(field(line, "track_state"), "\"tracking\"");
+    EXPECT_EQ(field(line, "track_age"), std::to_string(i + 1));
+    EXPECT_NEAR(number(line, "distance"), number(line, "raw_distance"), 0.01);
+    EXPECT_TRUE(has(line, "\"position_covariance\": [")) << line;
+    EXPECT_TRUE(has(line, "\"axis\": {\"x\": ")) << line;
+  }
+  // Without --track: the per-frame fields only, the axis among them.
+  const CliRun plain = spoolDetect((dir_ / "approach").string());
+  ASSERT_EQ(plain.lines.size(), 6u);
+  EXPECT_FALSE(has(plain.lines[0], "track_state"));
+  EXPECT_TRUE(has(plain.lines[0], "\"axis\": {\"x\": ")) << plain.lines[0];
+}
+
+TEST_F(SpoolDetectCli, StdinAnswersEachLineAtOnceAndTheTrackerGoesOnPastABadPath)
+{
+  const std::vector<std::string> frames = writeApproach(dir_ / "approach", 3);
+  // A pipe both ways: each answer must come before the next path is written (flushed at once).
+  int to_child[2];
+  int from_child[2];
+  ASSERT_EQ(pipe(to_child), 0);
+  ASSERT_EQ(pipe(from_child), 0);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0)
+  {
+    dup2(to_child[0], 0);
+    dup2(from_child[1], 1);
+    close(to_child[1]);
+    close(from_child[0]);
+    execl(SPOOL_DETECT_BIN, SPOOL_DETECT_BIN, "--stdin", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  close(to_child[0]);
+  close(from_child[1]);
+  FILE* answers = fdopen(from_child[0], "r");
+  auto ask = [&](const std::string& path)
+  {
+    const std::string line = path + "\n";
+    EXPECT_EQ(write(to_child[1], line.data(), line.size()), static_cast<ssize_t>(line.size()));
+    pollfd ready{from_child[0], POLLIN, 0};
+    EXPECT_EQ(poll(&ready, 1, 20000), 1) << "no answer to " << path << " within 20 s";
+    char buffer[8192] = {};
+    return std::string(fgets(buffer, sizeof(buffer), answers) ? buffer : "");
+  };
+  const std::string first = ask(frames[0]);
+  const std::string bad = ask((dir_ / "nope.png").string());
+  const std::string second = ask(frames[1]);
+  const std::string third = ask(frames[2]);
+  close(to_child[1]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  fclose(answers);
+  EXPECT_EQ(field(first, "track_age"), "1") << first;
+  EXPECT_TRUE(has(bad, "\"error\"")) << bad;
+  EXPECT_EQ(field(second, "track_age"), "2") << second;
+  EXPECT_EQ(field(third, "track_age"), "3") << third;
+  EXPECT_EQ(field(third, "track_state"), "\"tracking\"") << third;
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1);  // an image failed
+  // --stdin takes no PATH.
+  EXPECT_EQ(spoolDetect("--stdin " + frames[0]).exit_code, 2);
 }
