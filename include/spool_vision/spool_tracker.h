@@ -19,13 +19,14 @@
 
 namespace spool_vision
 {
-/// The track's state in a frame. The values are the SpoolPose message's constants.
+/// The track's state in a frame. The values are the SpoolPose message's TRACK_* constants
+/// (TRACK_OFF = 0 is a node without tracking).
 enum class TrackState : std::uint8_t
 {
-  kSearching = 0,  ///< no track: waiting for a detection with a hole rim
-  kTracking = 1,   ///< this frame's detection was fused
-  kCoasting = 2,   ///< no detection, or one refused by the gate: the prediction, flagged
-  kLost = 3        ///< the track ended in this frame (coasted too long, or a consistent other spool)
+  kSearching = 1,  ///< no track: waiting for a detection with a hole rim
+  kTracking = 2,   ///< this frame's detection was fused
+  kCoasting = 3,   ///< no detection, or one refused by the gate: the prediction, flagged
+  kLost = 4        ///< the track ended in this frame (coasted too long, or a consistent other spool)
 };
 
 /// "searching", "tracking", "coasting", "lost".

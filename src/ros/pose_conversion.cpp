@@ -39,16 +39,60 @@ SpoolPose toSpoolPose(const SpoolDetection& detection, const std_msgs::Header& h
   pose.axis_angle = detected ? detection.axis_angle : kNaN;
   pose.axis_yaw = detected ? detection.axis_yaw : kNaN;
   pose.bore_see_through = pose.hole_detected && detection.lens_detected;
-  pose.flange_x = detected ? detection.flange.x : kNaN;
-  pose.flange_y = detected ? detection.flange.y : kNaN;
-  pose.flange_radius = detected ? detection.flange.r : kNaN;
+  // A coasting track's frame has no rims of its own (their radius is 0).
+  const bool flange = detected && detection.flange.r > 0.0;
+  pose.flange_x = flange ? detection.flange.x : kNaN;
+  pose.flange_y = flange ? detection.flange.y : kNaN;
+  pose.flange_radius = flange ? detection.flange.r : kNaN;
   pose.hole_x = pose.hole_detected ? detection.hole.x : kNaN;
   pose.hole_y = pose.hole_detected ? detection.hole.y : kNaN;
   pose.hole_radius = pose.hole_detected ? detection.hole.r : kNaN;
   pose.reference_x = detection.reference.x;
   pose.reference_y = detection.reference.y;
   pose.confidence = detected ? detection.confidence : 0.0;
+  setTrackFields(pose, nullptr);
   return pose;
+}
+
+void setTrackFields(SpoolPose& pose, const TrackedFrame* frame)
+{
+  if (!frame)
+  {
+    pose.track_state = SpoolPose::TRACK_OFF;
+    pose.track_age = 0;
+    pose.track_rejected = 0;
+    pose.raw_distance = pose.distance;
+    pose.position_covariance.fill(kNaN);
+    return;
+  }
+  const TrackedSpool& t = frame->track;
+  pose.track_state = static_cast<std::uint8_t>(t.state);
+  pose.track_age = static_cast<std::uint32_t>(t.age);
+  pose.track_rejected = static_cast<std::uint32_t>(t.rejected);
+  pose.raw_distance = frame->raw.detected ? frame->raw.distance : kNaN;
+  for (int i = 0; i < 9; ++i)
+    pose.position_covariance[i] = frame->published.detected ? t.position_covariance(i / 3, i % 3) : kNaN;
+}
+
+std::optional<geometry_msgs::PoseWithCovarianceStamped> poseWithCovariance(const TrackedFrame& frame,
+                                                                           const std_msgs::Header& header)
+{
+  const std::optional<geometry_msgs::Pose> pose = spoolPose3d(frame.published);
+  if (!pose)
+    return std::nullopt;
+  geometry_msgs::PoseWithCovarianceStamped out;
+  out.header = header;
+  out.pose.pose = *pose;
+  out.pose.covariance.fill(0.0);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      out.pose.covariance[static_cast<std::size_t>(r * 6 + c)] = frame.track.position_covariance(r, c);
+  const double tilt =
+      std::isfinite(frame.track.axis_sigma) ? frame.track.axis_sigma * frame.track.axis_sigma : kUnobservedVariance;
+  out.pose.covariance[21] = tilt;                 // about x
+  out.pose.covariance[28] = tilt;                 // about y
+  out.pose.covariance[35] = kUnobservedVariance;  // about the spool axis: a circle shows none
+  return out;
 }
 
 SpoolPose undefinedSpoolPose(const std_msgs::Header& header, double tolerance)

@@ -5,10 +5,12 @@
 #include <optional>
 
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <std_msgs/Header.h>
 #include <visualization_msgs/Marker.h>
 
 #include "spool_vision/SpoolPose.h"
+#include "spool_vision/spool_tracker.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision
@@ -25,6 +27,23 @@ SpoolPose undefinedSpoolPose(const std_msgs::Header& header, double tolerance);
 /// when the spool faces the camera) and y = z cross x (down when level). Empty when nothing was
 /// detected or the position or axis is not finite (not measured).
 std::optional<geometry_msgs::Pose> spoolPose3d(const SpoolDetection& detection);
+
+/// The tracker's fields of `pose` (track_state, track_age, track_rejected, raw_distance,
+/// position_covariance) for `frame`; without one (~track false) TRACK_OFF, age 0, raw_distance
+/// the published depth and the covariance NaN.
+void setTrackFields(SpoolPose& pose, const TrackedFrame* frame);
+
+/// Variance given to what a frame does not observe (the rotation about the spool axis; the axis
+/// before a hole rim gave one), as ROS consumers of PoseWithCovariance expect: large, not zero.
+constexpr double kUnobservedVariance = 1e6;
+
+/// The tracked spool as geometry_msgs/PoseWithCovarianceStamped: spoolPose3d() of the published
+/// (filtered) detection, covariance 6x6 row-major in the camera optical frame (x, y, z, then
+/// rotations about x, y, z): the position block the tracker's; rotations about x and y the
+/// axis's variance (axis_sigma^2, small angles), about z kUnobservedVariance. Empty when no
+/// track holds the spool or its pose is not measured.
+std::optional<geometry_msgs::PoseWithCovarianceStamped> poseWithCovariance(const TrackedFrame& frame,
+                                                                           const std_msgs::Header& header);
 
 /// The spool for RViz: a CYLINDER of the flange's diameter and the hub's length whose front face
 /// is centred on the bore's front centre and which extends along the axis into the spool

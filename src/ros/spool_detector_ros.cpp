@@ -125,9 +125,9 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {"image_transport", "queue_size",        "min_rate",
-                                             "max_rate",        "diagnostic_period", "use_camera_info",
-                                             "publish_tf",      "spool_frame",       "rectified"};
+  static const std::set<std::string> keys = {
+      "image_transport", "queue_size", "min_rate",    "max_rate",  "diagnostic_period",
+      "use_camera_info", "publish_tf", "spool_frame", "rectified", "track"};
   return keys;
 }
 
@@ -136,7 +136,7 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
 {
   DetectorParams params;
   loadParamsFromRos(pnh_, rosKeys(), params);
-  detector_.setParams(params);
+  tracking_.setParams(params);
 
   const auto transport = readRosOption<std::string>(pnh_, "image_transport", "raw", "a transport name such as raw");
   const int queue_size = readRosOption<int>(pnh_, "queue_size", 2, "an integer in [1, 1000]");
@@ -148,6 +148,7 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
     throw ParamError("max_rate", "min_rate and max_rate must satisfy 0 < min_rate <= max_rate");
   const bool use_camera_info = readRosOption<bool>(pnh_, "use_camera_info", true, "true or false");
   const bool publish_tf = readRosOption<bool>(pnh_, "publish_tf", false, "true or false");
+  track_ = readRosOption<bool>(pnh_, "track", false, "true or false");
   // A word or a bool: roslaunch's <param value="false"> and YAML's false arrive as bools.
   bool rectified_flag = false;
   const std::string rectified = pnh_.getParam("rectified", rectified_flag)
@@ -168,6 +169,8 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
 
   pose_pub_ = nh_.advertise<SpoolPose>("spool_pose", 10);
   pose_stamped_pub_ = pnh_.advertise<geometry_msgs::PoseStamped>("pose", 10);
+  if (track_)
+    pose_covariance_pub_ = pnh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose_with_covariance", 10);
   marker_pub_ = pnh_.advertise<visualization_msgs::Marker>("marker", 10);
   debug_pub_ = private_it_.advertise("debug_image", 1);
   if (publish_tf)
@@ -197,7 +200,7 @@ void SpoolDetectorRos::startReconfigureServer()
     const ParamSpec* spec = findParamSpec(description->name);
     if (!spec)
       throw std::logic_error("cfg/SpoolDetector.cfg key '" + description->name + "' is not a detector key");
-    setRosParam(pnh_, spec->key, spec->get(detector_.params()));
+    setRosParam(pnh_, spec->key, spec->get(detector().params()));
   }
   reconfigure_server_ = std::make_unique<dynamic_reconfigure::Server<SpoolDetectorConfig>>(pnh_);
   reconfigure_server_->setCallback([this](SpoolDetectorConfig& config, uint32_t level)
@@ -280,7 +283,7 @@ void SpoolDetectorRos::subscribeInfo(int queue_size, std::unique_ptr<StampPairin
 
 void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t /*level*/)
 {
-  DetectorParams params = detector_.params();
+  DetectorParams params = detector().params();
   try
   {
     for (const auto& description : SpoolDetectorConfig::__getParamDescriptions__())
@@ -296,7 +299,7 @@ void SpoolDetectorRos::reconfigureCallback(SpoolDetectorConfig& config, uint32_t
       else
         setParam(params, description->name, boost::any_cast<bool>(value));
     }
-    detector_.setParams(params);
+    tracking_.setParams(params);
     applied_config_ = config;
   }
   catch (const ParamError& e)
@@ -345,7 +348,7 @@ void SpoolDetectorRos::handleFrame(const std_msgs::Header& header, const std::st
     // the controller still gets a message for the frame, with nothing detected.
     if (shouldLogError(input, e.what()))
       ROS_ERROR("spool_detector: cannot process %s: %s", description.c_str(), e.what());
-    const auto& g = detector_.params().geometry;
+    const auto& g = detector().params().geometry;
     publishPose(undefinedSpoolPose(header, (g.hole_diameter - g.puller_diameter) / 2.0));
     marker_pub_.publish(spoolMarker(header, std::nullopt, g.flange_diameter, g.hub_length));
     ++window_failed_;
@@ -437,15 +440,23 @@ void SpoolDetectorRos::processFrame(const std_msgs::Header& header, const cv::Ma
                                     const sensor_msgs::CameraInfoConstPtr& info)
 {
   updateCamera(info, image.cols, image.rows);
-  const SpoolDetection detection = detector_.detect(image, format);
+  TrackedFrame frame;
+  if (track_)
+    frame = tracking_.process(image, format, header.stamp.toSec());
+  else
+    frame.raw = frame.published = detector().detect(image, format);
+  const SpoolDetection& detection = frame.published;
   reportCameraSource(image.size());
-  publishPose(toSpoolPose(detection, header));
-  publishSpool3d(detection, header);
+  SpoolPose pose = toSpoolPose(detection, header);
+  setTrackFields(pose, track_ ? &frame : nullptr);
+  publishPose(pose);
+  publishSpool3d(detection, header, track_ ? &frame : nullptr);
 
   ++window_frames_;
   window_detected_ += detection.detected ? 1 : 0;
-  window_detector_ms_ += detection.time_ms;
-  window_detector_max_ms_ = std::max(window_detector_max_ms_, detection.time_ms);
+  window_rejected_ += frame.track.rejected_now ? 1 : 0;
+  window_detector_ms_ += frame.raw.time_ms;
+  window_detector_max_ms_ = std::max(window_detector_max_ms_, frame.raw.time_ms);
 
   if (debug_pub_.getNumSubscribers() > 0)
     debug_pub_.publish(cv_bridge::CvImage(header, enc::BGR8, renderOverlay(image, format, detection)).toImageMsg());
@@ -463,7 +474,7 @@ void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info,
   if (!conversion.camera)
   {
     if (info_camera_)
-      detector_.clearCamera();
+      detector().clearCamera();
     info_camera_.reset();
     camera_problem_ = info_topic_ + ": " + conversion.problem;
     camera_refused_ = conversion.refused;
@@ -477,16 +488,21 @@ void SpoolDetectorRos::updateCamera(const sensor_msgs::CameraInfoConstPtr& info,
   reported_distortion_ignored_ = conversion.distortion_ignored;
   if (info_camera_ != conversion.camera)
   {
-    detector_.setCamera(*conversion.camera);
+    detector().setCamera(*conversion.camera);
+    tracking_.tracker().reset();  // a track's window and error model belong to the old camera
     info_camera_ = conversion.camera;
   }
   camera_problem_.clear();
 }
 
-void SpoolDetectorRos::publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header)
+void SpoolDetectorRos::publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header,
+                                      const TrackedFrame* frame)
 {
+  if (frame)
+    if (const auto with_covariance = poseWithCovariance(*frame, header))
+      pose_covariance_pub_.publish(*with_covariance);
   const std::optional<geometry_msgs::Pose> pose = spoolPose3d(detection);
-  const auto& g = detector_.params().geometry;
+  const auto& g = detector().params().geometry;
   marker_pub_.publish(spoolMarker(header, pose, g.flange_diameter, g.hub_length));
   if (!pose)
     return;
@@ -519,7 +535,7 @@ void SpoolDetectorRos::publishSpool3d(const SpoolDetection& detection, const std
 
 void SpoolDetectorRos::reportCameraSource(const cv::Size& size)
 {
-  if (!detector_.usingFallbackCamera())
+  if (!detector().usingFallbackCamera())
   {
     if (!reported_problem_.empty())
       ROS_INFO("spool_detector: using the camera_info intrinsics (fx %.1f, fy %.1f px)", info_camera_->fx,
@@ -531,7 +547,7 @@ void SpoolDetectorRos::reportCameraSource(const cv::Size& size)
     return;
   char camera[96];
   std::snprintf(camera, sizeof(camera), "f = %.1f px for %dx%d",
-                detector_.params().geometry.fallback_focal_length * size.height / 120.0, size.width, size.height);
+                detector().params().geometry.fallback_focal_length * size.height / 120.0, size.width, size.height);
   const std::string fallback = camera_problem_ + "; falling back to the thesis camera (" + camera +
                                ", principal point at the image centre). Distances and angles are only as good as "
                                "that guess: calibrate the camera.";
@@ -582,7 +598,7 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
   using diagnostic_msgs::DiagnosticStatus;
   if (window_failed_ > 0)
     status.summaryf(DiagnosticStatus::WARN, "%d frames could not be processed", window_failed_);
-  else if (detector_.usingFallbackCamera() && window_frames_ > 0)
+  else if (detector().usingFallbackCamera() && window_frames_ > 0)
     status.summary(DiagnosticStatus::WARN, "no valid camera_info: using the thesis camera");
   else
     status.summary(DiagnosticStatus::OK, "ok");
@@ -605,9 +621,16 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
   // Image stamp to SpoolPose publication (transport, decoding, detection), in ros::Time.
   if (!window_latency_ms_.empty())
     addQuantiles(status, "Latency", window_latency_ms_);
-  status.add("Camera", detector_.usingFallbackCamera() ? "thesis fallback" : "camera_info");
+  status.add("Camera", detector().usingFallbackCamera() ? "thesis fallback" : "camera_info");
+  if (track_)
+  {
+    const TrackedSpool& track = tracking_.tracker().current();
+    status.add("Track state", toString(track.state));
+    status.add("Track age (frames)", track.age);
+    status.add("Refused detections", window_rejected_);
+  }
 
-  window_frames_ = window_detected_ = window_failed_ = 0;
+  window_frames_ = window_detected_ = window_failed_ = window_rejected_ = 0;
   window_detector_ms_ = window_detector_max_ms_ = window_callback_ms_ = 0.0;
   window_latency_ms_.clear();
   window_processing_ms_.clear();

@@ -24,6 +24,7 @@
 #include "spool_vision/SpoolDetectorConfig.h"
 #include "spool_vision/SpoolPose.h"
 #include "spool_vision/spool_detector.h"
+#include "spool_vision/spool_tracker.h"
 #include "stamp_pairing.h"
 #include "stream_monitor.h"
 
@@ -80,7 +81,10 @@ private:
   void updateCamera(const sensor_msgs::CameraInfoConstPtr& info, int width, int height);
   /// Publishes `pose` on ~spool_pose and takes its latency (now - its stamp) into the window.
   void publishPose(const SpoolPose& pose);
-  void publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header);
+  /// ~pose, the marker and TF of the published detection; ~pose_with_covariance of `frame`'s
+  /// track (with track_).
+  void publishSpool3d(const SpoolDetection& detection, const std_msgs::Header& header,
+                      const TrackedFrame* frame = nullptr);
   /// True when an input error of this kind was not logged in the last throttle period.
   bool shouldLogError(const std::string& encoding, const std::string& what);
   void reportCameraSource(const cv::Size& size);
@@ -92,7 +96,13 @@ private:
 
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
-  SpoolDetector detector_;
+  /// The detector, followed by the tracker when track_ (TrackingDetector::process).
+  TrackingDetector tracking_;
+  bool track_ = false;
+  SpoolDetector& detector()
+  {
+    return tracking_.detector();
+  }
 
   image_transport::ImageTransport it_;
   image_transport::ImageTransport private_it_;
@@ -107,6 +117,7 @@ private:
   std::string info_topic_;   ///< resolved; empty with use_camera_info false
   ros::Publisher pose_pub_;
   ros::Publisher pose_stamped_pub_;
+  ros::Publisher pose_covariance_pub_;  ///< with track_ only
   ros::Publisher marker_pub_;
   image_transport::Publisher debug_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;  ///< with publish_tf only
@@ -146,6 +157,7 @@ private:
   double window_detector_ms_ = 0.0;
   double window_detector_max_ms_ = 0.0;
   double window_callback_ms_ = 0.0;
+  int window_rejected_ = 0;            ///< detections the gate refused
   SampleWindow window_latency_ms_;     ///< ros::Time::now() - stamp at each SpoolPose's publication
   SampleWindow window_processing_ms_;  ///< wall time of each frame's callback
 };
