@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Installs the Debian packages spool_vision needs (ROS 1 from Debian, OpenCV, Eigen, CLI11,
 # nlohmann-json, matplotlib for the report charts, GTest, Google Benchmark; clang with libFuzzer
-# and the sanitizer runtimes, llvm-symbolizer for readable reports). Idempotent: packages already
-# installed are skipped, and apt is not touched when nothing is missing.
+# and the sanitizer runtimes, llvm-symbolizer for readable reports; tf2-tools for demo.launch's
+# static transform; Xvfb, Mesa's software GL and PIL for the RViz screenshot check). Idempotent:
+# packages already installed are skipped, and apt is not touched when nothing is missing.
 set -euo pipefail
 
 PACKAGES=(
@@ -18,7 +19,8 @@ PACKAGES=(
   # image_proc's rectify nodelet (image_proc_rectify.test): the node is in ros-image-proc, the
   # nodelets' plugin description in libimage-proc-dev
   ros-image-proc libimage-proc-dev
-  python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools rviz
+  python3-tf2-ros python3-geometry-msgs python3-visualization-msgs tf-tools tf2-tools rviz
+  xvfb libgl1-mesa-dri python3-pil
   libnodeletlib-tools
   libopencv-dev libeigen3-dev libyaml-cpp-dev libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev
   clang libclang-rt-dev llvm

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every test: installs what is missing, builds, runs the gtest suites (core, io, CLI) and
 # the ROS tests (rostest, bag replay), the core's gtests under sanitizers and a 60 s fuzz run
-# (scripts/sanitize.sh, scripts/fuzz.sh), then prints one summary line "N passed, N failed".
+# (scripts/sanitize.sh, scripts/fuzz.sh) and the RViz demo's screenshot check
+# (scripts/rviz_demo_check.sh), then prints one summary line "N passed, N failed".
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install_deps.sh
@@ -32,6 +33,8 @@ counted() {
 }
 counted sanitizers ./scripts/sanitize.sh
 counted fuzz ./scripts/fuzz.sh 60
+# demo.launch rviz:=true in Xvfb: a screenshot of RViz checked for the spool, its TF frame and pose.
+counted rviz_demo ./scripts/rviz_demo_check.sh
 
 /usr/bin/python3 - "$results" <<'PY'
 import glob, sys, xml.etree.ElementTree as ET
