@@ -201,16 +201,17 @@ def plot_series(poses):
     """What the plot draws: {"t": seconds from the first frame's stamp, "rows": [(label, raw,
     filtered or None)]}.
 
-    Only the raw detection exists today. A tracker is expected to keep each field as its filtered
-    estimate and add the detection beside it as raw_<field> (raw_distance, raw_yaw, ...). When
-    every pose has raw_<field>, that is drawn as "raw" and <field> as "filtered"; otherwise the
-    field itself is the raw series and no filtered one is drawn. Nothing else is assumed.
+    With the node's tracker on (track_state other than TRACK_OFF, 0) each field is the filtered
+    estimate and the frame's own detection is beside it as raw_<field> where the message has one
+    (raw_distance): those rows draw both, "raw" and "filtered". A field without raw_<field>, or a
+    node without the tracker (its raw_distance is the distance itself), gives one series.
     """
     t0 = stamp_seconds(poses[0].header) if poses else 0.0
+    with_tracker = bool(poses) and all(getattr(p, "track_state", 0) != 0 for p in poses)
     rows = []
     for field, label, factor in PLOT_ROWS:
         raw_field = "raw_" + field
-        tracked = bool(poses) and all(hasattr(p, raw_field) for p in poses)
+        tracked = with_tracker and all(hasattr(p, raw_field) for p in poses)
         raw = [number(getattr(p, raw_field if tracked else field), factor) for p in poses]
         filtered = [number(getattr(p, field), factor) for p in poses] if tracked else None
         rows.append((label, raw, filtered))

@@ -101,8 +101,9 @@ class MessageFieldsTest(unittest.TestCase):
                     declared.add(words[1])
         used = {field for field, _, _ in dp.PLOT_ROWS} | {"header", "detected", "hole_detected", "aligned"}
         self.assertLessEqual(used, declared)
-        # The filtered series waits for a tracker: no raw_ field is declared yet.
-        self.assertFalse([name for name in declared if name.startswith("raw_")])
+        # The tracker's raw series: raw_distance, told apart by track_state.
+        self.assertIn("raw_distance", declared)
+        self.assertIn("track_state", declared)
 
 
 class ImagePixelsTest(unittest.TestCase):
@@ -229,9 +230,15 @@ class PlotTest(unittest.TestCase):
         self.assertEqual(aligned, [0.0, 0.0, 0.0])
         self.assertTrue(all(filtered is None for _, _, filtered in series["rows"]))
 
+    def test_one_series_without_the_tracker(self):
+        # A node with track false sends raw_distance = distance and TRACK_OFF: nothing to filter.
+        untracked = [pose(i, distance=1.0 - 0.01 * i, detected=True, raw_distance=1.0 - 0.01 * i, track_state=0)
+                     for i in range(3)]
+        self.assertTrue(all(filtered is None for _, _, filtered in dp.plot_series(untracked)["rows"]))
+
     def test_filtered_series_when_the_message_has_raw_fields(self):
         tracked = [pose(i, distance=1.0 - 0.01 * i, detected=True, yaw=0.0, axis_angle=0.0,
-                        raw_distance=1.02 - 0.01 * i, raw_yaw=0.01, raw_axis_angle=0.0) for i in range(3)]
+                        raw_distance=1.02 - 0.01 * i, raw_yaw=0.01, raw_axis_angle=0.0, track_state=2) for i in range(3)]
         rows = {label: (raw, filtered) for label, raw, filtered in dp.plot_series(tracked)["rows"]}
         raw, filtered = rows["depth [m]"]
         self.assertAlmostEqual(raw[0], 1.02)
@@ -261,7 +268,7 @@ class PlotTest(unittest.TestCase):
 
     def test_filtered_plot(self):
         tracked = [pose(i, distance=1.0 - 0.01 * i, detected=True, aligned=i > 2, yaw=0.0, axis_angle=0.0,
-                        raw_distance=1.02 - 0.01 * i, raw_yaw=0.01, raw_axis_angle=0.0) for i in range(5)]
+                        raw_distance=1.02 - 0.01 * i, raw_yaw=0.01, raw_axis_angle=0.0, track_state=2) for i in range(5)]
         self.plot(tracked, "tracked.png")
 
 
