@@ -68,9 +68,9 @@ struct TrackedSpool
   double front_miss = kNaN;
   double back_miss = kNaN;
   double miss_sigma = kNaN;
-  /// The filtered state clears the bore: in the insertion window, fused this frame, and each miss
-  /// plus track_aligned_sigma sigmas within t_f - aligned_margin, for track_confirm_frames frames
-  /// in a row
+  /// The filtered state clears the bore: each miss plus track_aligned_sigma sigmas within
+  /// t_f - aligned_margin on track_confirm_frames fused frames in a row (this one among them),
+  /// and the depth in the insertion window
   bool aligned = false;
 };
 

@@ -354,12 +354,15 @@ void SpoolTracker::decideAligned()
     tracked_.miss_sigma = std::max(front_sigma, back_sigma);
     const double clearance = (g.hole_diameter - g.puller_diameter) / 2.0 - g.aligned_margin;
     const double k = params_.tracker.aligned_sigma;
-    const double depth = tracked_.position.z;
-    clears = tracked_.fused_now && depth >= g.aligned_distance_min && depth <= g.aligned_distance_max &&
-             tracked_.front_miss + k * front_sigma <= clearance && tracked_.back_miss + k * back_sigma <= clearance;
+    clears = tracked_.fused_now && tracked_.front_miss + k * front_sigma <= clearance &&
+             tracked_.back_miss + k * back_sigma <= clearance;
   }
+  // The clearance is confirmed over the frames before the insertion window too, so that aligned
+  // can come on the first frame inside it.
   confirmed_ = clears ? confirmed_ + 1 : 0;
-  tracked_.aligned = confirmed_ >= params_.tracker.confirm_frames;
+  const double depth = tracked_.position.z;
+  tracked_.aligned = confirmed_ >= params_.tracker.confirm_frames && depth >= g.aligned_distance_min &&
+                     depth <= g.aligned_distance_max;
 }
 
 std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const CameraIntrinsics& camera) const

@@ -35,7 +35,8 @@ const char* const kUsage =
     "  --overlay  write DIR/<image name>.png: the image with what the detector saw (flange,\n"
     "             hole, reference, distance, yaw, state); DIR is created if missing\n"
     "  --track    follow one spool over the images in the order given (SpoolTracker): the\n"
-    "             tracked values, plus track_state, track_age, raw_distance, position_covariance\n"
+    "             tracked values, plus track_state, track_age, raw_distance, position_covariance,\n"
+    "             the puller's misses at the bore's ends and their sigma\n"
     "  --stdin    read one image path per line from standard input and answer each with one JSON\n"
     "             line at once, the tracker's state kept between lines (implies --track)\n"
     "  --rate     frames per second the images were taken at, for the tracker (default 30)\n"
@@ -182,7 +183,11 @@ void addTrack(const spool_vision::TrackedFrame& frame, JsonObject& out)
     out.addArray("position_covariance", std::vector<double>(t.position_covariance.val, t.position_covariance.val + 9));
   else
     out.addRaw("position_covariance", "null");
-  out.add("axis_sigma", t.axis_sigma, 5).add("full_search", frame.full_search);
+  out.add("axis_sigma", t.axis_sigma, 5)
+      .add("front_miss", t.front_miss, 5)
+      .add("back_miss", t.back_miss, 5)
+      .add("miss_sigma", t.miss_sigma, 5)
+      .add("full_search", frame.full_search);
 }
 
 int run(int argc, char** argv)
