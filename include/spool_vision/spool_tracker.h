@@ -41,10 +41,10 @@ struct MeasurementNoise
 };
 
 /// The measured error model of the detector (docs/error_model.md: the table it comes from),
-/// scaled by track_noise_scale: the flange radius and the bore centre in px, by the image height
-/// the camera streams (interpolated in between), times a factor for a flange cut by the frame
-/// border (under 90% of its rim in view) and for a detection without a hole rim (the flange's
-/// centre stands in for the bore's, up to f (R/Z)^2 sin(tilt) px off).
+/// scaled by track_noise_scale: the flange radius, the bore centre and the axis, by the image
+/// height the camera streams (interpolated in between), the radius and axis times 1.5 for a
+/// flange cut by the frame border (under 90% of its rim in view); without a hole rim the flange's
+/// centre stands in for the bore's (up to f (R/Z)^2 sin(tilt) px off) and the axis is unknown.
 MeasurementNoise measurementNoise(const SpoolDetection& detection, int image_height, const TrackerParams& params);
 
 /// What the tracker holds after a frame. Positions in the camera optical frame (REP 103), m.
