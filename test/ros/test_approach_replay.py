@@ -3,9 +3,8 @@
 Every frame must be detected, its distance within tolerance of the ground truth, and `aligned`
 true exactly where the ground truth says so, which is only in the final frames. With the node's
 `track` on (~track), the tracked values: one track over the whole approach, its covariance and
-~pose_with_covariance on every frame, and `aligned` never where the ground truth says the puller
-would touch (how many truly aligned frames it confirms is printed, not asserted: see README,
-Tracking)."""
+~pose_with_covariance on every frame, `aligned` never where the ground truth says the puller would
+touch and on at least 80% of the frames where it would pass."""
 import glob
 import json
 import os
@@ -84,8 +83,10 @@ class ApproachReplayTest(unittest.TestCase):
                       for i, t in enumerate(self.truth) if self.frame_pose(i).aligned and not t["aligned"]]
             self.assertFalse(unsafe, "\n" + "\n".join(unsafe))
             confirmed = sum(self.frame_pose(i).aligned for i, t in enumerate(self.truth) if t["aligned"])
-            print("tracked: aligned on %d of %d truly aligned frames" % (
-                confirmed, sum(t["aligned"] for t in self.truth)))
+            truly = sum(t["aligned"] for t in self.truth)
+            print("tracked: aligned on %d of %d truly aligned frames" % (confirmed, truly))
+            # The rendered approach: 6 of 6 with the measured error model (docs/error_model.md).
+            self.assertGreaterEqual(confirmed, 0.8 * truly, "tracked aligned on %d of %d" % (confirmed, truly))
             return
         wrong = ["frame %d: aligned %s, truth %s" % (i, self.frame_pose(i).aligned, t["aligned"])
                  for i, t in enumerate(self.truth) if self.frame_pose(i).aligned != t["aligned"]]
