@@ -361,10 +361,17 @@ void SpoolDetectorRos::handleFrame(const std_msgs::Header& header, const std::st
 void SpoolDetectorRos::publishPose(const SpoolPose& pose)
 {
   pose_pub_.publish(pose);
-  // A stamp after the clock (a bag's loop sends the clock back first, or a camera on another
-  // clock) says nothing about this node's delay.
-  const double latency_ms = (ros::Time::now() - pose.header.stamp).toSec() * 1000.0;
-  if (latency_ms >= 0.0)
+  // When the stamps or the clock go back (a bag's loop: the two jump at different moments) a
+  // frame's now - stamp says nothing about this node's delay: as Frame age does, the period in
+  // which that happens reports no latency. A stamp after the clock (a camera on another clock)
+  // is left out too.
+  const ros::Time now = ros::Time::now();
+  if (!last_pose_stamp_.isZero() && (pose.header.stamp < last_pose_stamp_ || now < last_pose_clock_))
+    latency_time_jumped_ = true;
+  last_pose_stamp_ = pose.header.stamp;
+  last_pose_clock_ = now;
+  const double latency_ms = (now - pose.header.stamp).toSec() * 1000.0;
+  if (!latency_time_jumped_ && latency_ms >= 0.0)
     window_latency_ms_.add(latency_ms);
 }
 
@@ -619,7 +626,7 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
     addQuantiles(status, "Processing time", window_processing_ms_);
   }
   // Image stamp to SpoolPose publication (transport, decoding, detection), in ros::Time.
-  if (!window_latency_ms_.empty())
+  if (!window_latency_ms_.empty() && !latency_time_jumped_)
     addQuantiles(status, "Latency", window_latency_ms_);
   status.add("Camera", detector().usingFallbackCamera() ? "thesis fallback" : "camera_info");
   if (track_)
@@ -634,6 +641,7 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
   window_detector_ms_ = window_detector_max_ms_ = window_callback_ms_ = 0.0;
   window_latency_ms_.clear();
   window_processing_ms_.clear();
+  latency_time_jumped_ = false;
 }
 
 }  // namespace spool_vision

@@ -157,8 +157,11 @@ private:
   double window_detector_ms_ = 0.0;
   double window_detector_max_ms_ = 0.0;
   double window_callback_ms_ = 0.0;
-  int window_rejected_ = 0;            ///< detections the gate refused
-  SampleWindow window_latency_ms_;     ///< ros::Time::now() - stamp at each SpoolPose's publication
+  int window_rejected_ = 0;           ///< detections the gate refused
+  SampleWindow window_latency_ms_;    ///< ros::Time::now() - stamp at each SpoolPose's publication
+  bool latency_time_jumped_ = false;  ///< the stamps or the clock went back in this period
+  ros::Time last_pose_stamp_;
+  ros::Time last_pose_clock_;
   SampleWindow window_processing_ms_;  ///< wall time of each frame's callback
 };
 
