@@ -86,7 +86,8 @@ std::optional<geometry_msgs::PoseWithCovarianceStamped> poseWithCovariance(const
   out.pose.covariance.fill(0.0);
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c)
-      out.pose.covariance[static_cast<std::size_t>(r * 6 + c)] = frame.track.position_covariance(r, c);
+      out.pose.covariance[static_cast<std::size_t>(r) * 6 + static_cast<std::size_t>(c)] =
+          frame.track.position_covariance(r, c);
   const double tilt =
       std::isfinite(frame.track.axis_sigma) ? frame.track.axis_sigma * frame.track.axis_sigma : kUnobservedVariance;
   out.pose.covariance[21] = tilt;                 // about x

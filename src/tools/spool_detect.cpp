@@ -38,7 +38,8 @@ const char* const kUsage =
     "             tracked values, plus track_state, track_age, raw_distance, position_covariance,\n"
     "             the puller's misses at the bore's ends and their sigma\n"
     "  --stdin    read one image path per line from standard input and answer each with one JSON\n"
-    "             line at once, the tracker's state kept between lines (implies --track)\n"
+    "             line at once, the tracker's state kept between lines (implies --track); a path\n"
+    "             that cannot be read is a dropped frame\n"
     "  --rate     frames per second the images were taken at, for the tracker (default 30)\n"
     "Prints one JSON object per image on stdout. Exit: 0 ok, 1 an image failed, 2 bad option/config.\n";
 
@@ -190,67 +191,94 @@ void addTrack(const spool_vision::TrackedFrame& frame, JsonObject& out)
       .add("full_search", frame.full_search);
 }
 
-int run(int argc, char** argv)
+// The detector (and tracker) of one run, answering one image at a time.
+class ImageRunner
 {
-  const Options options = parseOptions(argc, argv);
-  spool_vision::DetectorParams params;
-  std::optional<spool_vision::CameraIntrinsics> camera;
-  std::optional<spool_vision::TrackingDetector> detector;
-  setUp(options, params, camera, detector);
+public:
+  explicit ImageRunner(const Options& options) : options_(options)
+  {
+    setUp(options_, params_, camera_, detector_);
+  }
 
-  bool any_failed = false;
-  bool fallback_said = false;
-  int frame_index = 0;
-  auto process = [&](const std::string& path)
+  /// One image's line; `failed` is set when the image could not be processed. Every image is a
+  /// frame slot (i / --rate), read or not: a frame that cannot be read is a dropout for the tracker.
+  JsonObject process(const std::string& path, bool& failed)
   {
     JsonObject out;
     out.add("image", path);
+    const double stamp = frame_index_++ / options_.rate;
     try
     {
       const spool_vision::ImageFile file = spool_vision::readImageFile(path);
       spool_vision::TrackedFrame frame;
-      if (options.track)
-        frame = detector->process(file.image, file.format, frame_index / options.rate);
+      if (options_.track)
+        frame = detector_->process(file.image, file.format, stamp);
       else
-        frame.published = detector->detector().detect(file.image, file.format);
-      ++frame_index;
-      const spool_vision::SpoolDetection& d = frame.published;
-      if (detector->detector().usingFallbackCamera() && !fallback_said)
-      {
-        std::cerr << "spool_detect: " << (camera ? "camera info does not match the image size; " : "no camera info; ")
-                  << "using the thesis camera (f = " << params.geometry.fallback_focal_length
-                  << " px at 120 rows, scaled)\n";
-        fallback_said = true;
-      }
-      addDetection(file, d, out);
-      if (options.track)
+        frame.published = detector_->detector().detect(file.image, file.format);
+      sayFallbackOnce();
+      addDetection(file, frame.published, out);
+      if (options_.track)
         addTrack(frame, out);
-      if (!options.overlay.empty())
-      {
-        // Same name as the image, as png: lossless, so the thin lines and text stay sharp.
-        const std::string overlay = (fs::path(options.overlay) / fs::path(path).stem()).string() + ".png";
-        if (!cv::imwrite(overlay, spool_vision::renderOverlay(file.image, file.format, d)))
-          throw std::runtime_error("cannot write the overlay " + overlay);
-        out.add("overlay", overlay);
-      }
+      if (!options_.overlay.empty())
+        out.add("overlay", writeOverlay(path, file, frame.published));
     }
     catch (const std::exception& e)
     {
       out.add("error", e.what());
-      any_failed = true;
+      failed = true;
     }
-    std::cout << out.str() << std::endl;  // flushed: a program driving --stdin waits for it
+    return out;
+  }
+
+private:
+  void sayFallbackOnce()
+  {
+    if (!detector_->detector().usingFallbackCamera() || fallback_said_)
+      return;
+    std::cerr << "spool_detect: " << (camera_ ? "camera info does not match the image size; " : "no camera info; ")
+              << "using the thesis camera (f = " << params_.geometry.fallback_focal_length
+              << " px at 120 rows, scaled)\n";
+    fallback_said_ = true;
+  }
+
+  // Same name as the image, as png: lossless, so the thin lines and text stay sharp.
+  std::string writeOverlay(const std::string& path, const spool_vision::ImageFile& file,
+                           const spool_vision::SpoolDetection& d) const
+  {
+    const std::string overlay = (fs::path(options_.overlay) / fs::path(path).stem()).string() + ".png";
+    if (!cv::imwrite(overlay, spool_vision::renderOverlay(file.image, file.format, d)))
+      throw std::runtime_error("cannot write the overlay " + overlay);
+    return overlay;
+  }
+
+  const Options& options_;
+  spool_vision::DetectorParams params_;
+  std::optional<spool_vision::CameraIntrinsics> camera_;
+  std::optional<spool_vision::TrackingDetector> detector_;
+  bool fallback_said_ = false;
+  int frame_index_ = 0;
+};
+
+int run(int argc, char** argv)
+{
+  const Options options = parseOptions(argc, argv);
+  ImageRunner runner(options);
+  bool any_failed = false;
+  auto answer = [&](const std::string& path)
+  {
+    // Flushed: a program driving --stdin waits for each line.
+    std::cout << runner.process(path, any_failed).str() << std::endl;
   };
   if (options.from_stdin)
   {
     for (std::string path; std::getline(std::cin, path);)
       if (!path.empty())
-        process(path);
+        answer(path);
   }
   else
   {
     for (const auto& path : expand(options.paths))
-      process(path);
+      answer(path);
   }
   return any_failed ? 1 : 0;
 }
