@@ -36,6 +36,10 @@ constexpr std::array<ErrorRow, 4> kErrorModel = {{
 // 1.7x the whole flange's at some sizes; the centre, measured on the bore's rim, no worse).
 constexpr double kCutFlangeFactor = 1.5;
 constexpr double kCutFraction = 0.9;
+// The axis comes from the rim's shape, whose offset per degree of tilt falls as 1 / depth^2
+// (f (R/Z)^2 sin(tilt), DESIGN.md §5): the model's axis sigma holds at this depth (m, the middle
+// of the measured 50-110 cm) and scales with (depth / it)^2.
+constexpr double kAxisModelDepth = 0.8;
 
 // Velocity sigma of a new track (m/s): a forklift approaches at up to ~0.3 m/s.
 constexpr double kInitialSpeedSigma = 0.5;
@@ -125,7 +129,8 @@ MeasurementNoise measurementNoise(const SpoolDetection& d, int image_height, con
   MeasurementNoise noise;
   noise.radius_px = params.noise_scale * row.radius_px * (cut ? kCutFlangeFactor : 1.0);
   noise.centre_px = params.noise_scale * (d.hole_detected ? row.centre_px : row.no_hole_centre_px);
-  noise.axis = d.hole_detected ? params.noise_scale * row.axis * (cut ? kCutFlangeFactor : 1.0)
+  const double depth_factor = std::isfinite(d.position.z) ? std::pow(d.position.z / kAxisModelDepth, 2.0) : 1.0;
+  noise.axis = d.hole_detected ? params.noise_scale * row.axis * (cut ? kCutFlangeFactor : 1.0) * depth_factor
                                : std::numeric_limits<double>::infinity();
   return noise;
 }

@@ -44,6 +44,7 @@ SpoolDetection detectionAt(cv::Point3d position, cv::Vec3d axis, std::mt19937* r
   d.flange.r = d.flange.r_vertical = kCamera.fy * kFlangeRadius / position.z;
   d.flange.visible_fraction = 1.0;
   d.flange.score = 0.95;
+  d.position = position;  // the model's axis sigma depends on the depth
   const spool_vision::MeasurementNoise noise =
       spool_vision::measurementNoise(d, kCamera.height, spool_vision::TrackerParams());
   if (rng)
