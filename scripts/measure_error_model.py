@@ -219,17 +219,16 @@ def frames_for(args, size, set_name):
     return args.count_hd if size[1] >= 720 else args.count
 
 
-def run_job(args, size, set_name, seed):
-    """Renders one folder (unless a matching render exists), detects it with both passes and
-    returns the measured frames."""
+def render_folder(args, size, set_name, seed, count):
+    """Renders spool_render's `set_name` (count frames, seed) at size into WORK/WxH/SET_sSEED,
+    unless a render made there with the same options by the same tools exists (args.fresh:
+    always render). Returns (folder, reused). Also used by evaluate_tracking.py."""
     w, h = size
-    count = frames_for(args, size, set_name)
     folder = os.path.join(args.work, "%dx%d" % size, "%s_s%d" % (set_name, seed))
     cmd = [os.path.join(args.tools, "spool_render"), "--out", folder, "--width", str(w), "--height", str(h),
            "--count", str(count), "--seed", str(seed), "--set", set_name]
     stamp = " ".join(cmd[1:]) + " tools=" + args.renderer_hash
     stamp_file = os.path.join(folder, "render_stamp.txt")
-    t0 = time.time()
     reused = not args.fresh and os.path.exists(stamp_file) and open(stamp_file).read() == stamp
     if not reused:
         if os.path.isdir(folder):
@@ -239,6 +238,15 @@ def run_job(args, size, set_name, seed):
         run_tool(cmd, args.env)
         with open(stamp_file, "w") as f:
             f.write(stamp)
+    return folder, reused
+
+
+def run_job(args, size, set_name, seed):
+    """Renders one folder (unless a matching render exists), detects it with both passes and
+    returns the measured frames."""
+    count = frames_for(args, size, set_name)
+    t0 = time.time()
+    folder, reused = render_folder(args, size, set_name, seed, count)
     t1 = time.time()
     truths = {}
     frames = []

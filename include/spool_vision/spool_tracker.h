@@ -70,7 +70,7 @@ struct TrackedSpool
   double miss_sigma = kNaN;
   /// The filtered state clears the bore: each miss plus track_aligned_sigma sigmas within
   /// t_f - aligned_margin on track_confirm_frames fused frames in a row (this one among them),
-  /// and the depth in the insertion window
+  /// the depth in the insertion window, and a pixel no wider than aligned_max_pixel_angle
   bool aligned = false;
 };
 
@@ -136,12 +136,13 @@ private:
   Eigen::Vector2d axis_ = Eigen::Vector2d::Zero();  ///< the axis's slopes (x/z, y/z)
   Eigen::Matrix2d axis_p_ = Eigen::Matrix2d::Zero();
   bool axis_known_ = false;
-  int axis_refused_ = 0;  ///< axis measurements refused in a row
-  int coasted_ = 0;       ///< frames in a row without a fused detection
-  int confirmed_ = 0;     ///< frames in a row whose filtered state cleared the bore
-  double support_ = 0.0;  ///< confidence of the last fused detection
-  int refuting_ = 0;      ///< refused detections in a row that agree with each other
-  cv::Point3d refuter_;   ///< the last refused detection's position
+  int axis_refused_ = 0;     ///< axis measurements refused in a row
+  bool fine_enough_ = true;  ///< the camera's pixel subtends at most aligned_max_pixel_angle
+  int coasted_ = 0;          ///< frames in a row without a fused detection
+  int confirmed_ = 0;        ///< frames in a row whose filtered state cleared the bore
+  double support_ = 0.0;     ///< confidence of the last fused detection
+  int refuting_ = 0;         ///< refused detections in a row that agree with each other
+  cv::Point3d refuter_;      ///< the last refused detection's position
   Eigen::Matrix3d refuter_cov_ = Eigen::Matrix3d::Zero();
 };
 

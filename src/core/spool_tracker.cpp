@@ -165,6 +165,8 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   tracked_.rejected_now = false;
   tracked_.fused_now = false;
   const MeasurementNoise noise = measurementNoise(detection, camera.height, params_.tracker);
+  // As per frame: from a coarser image the axis is too uncertain (and biased) to claim clearance.
+  fine_enough_ = 1.0 / camera.fy <= params_.geometry.aligned_max_pixel_angle;
 
   if (!active_)
   {
@@ -370,7 +372,7 @@ void SpoolTracker::decideAligned()
   // can come on the first frame inside it.
   confirmed_ = clears ? confirmed_ + 1 : 0;
   const double depth = tracked_.position.z;
-  tracked_.aligned = confirmed_ >= params_.tracker.confirm_frames && depth >= g.aligned_distance_min &&
+  tracked_.aligned = fine_enough_ && confirmed_ >= params_.tracker.confirm_frames && depth >= g.aligned_distance_min &&
                      depth <= g.aligned_distance_max;
 }
 

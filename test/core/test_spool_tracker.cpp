@@ -330,3 +330,13 @@ TEST(SpoolTracker, TrackedDetectionCarriesTheFilteredValues)
   EXPECT_FALSE(none.detected);
   EXPECT_TRUE(std::isnan(none.distance));
 }
+
+TEST(SpoolTracker, NeverAlignedFromACoarserImageThanThePerFrameRuleAllows)
+{
+  // At 320x240 (1 / fy = 2.5 mrad > aligned_max_pixel_angle) the axis is too uncertain and
+  // biased to claim the clearance, tracked or not.
+  const CameraIntrinsics qvga = CameraIntrinsics::thesisDefault(320, 240);
+  SpoolTracker tracker;
+  for (int i = 0; i < 60; ++i)
+    EXPECT_FALSE(tracker.update(detectionAt({0.0, 0.06, 0.55}, kAlong, nullptr), stamp(i), qvga).aligned) << i;
+}
