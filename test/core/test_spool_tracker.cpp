@@ -82,6 +82,14 @@ double stamp(int frame)
 {
   return 100.0 + frame / kRate;
 }
+
+// The approach's first `frames` frames, detected (with `rng`'s noise, or exactly without one) and
+// fed to `tracker`.
+void feedApproach(SpoolTracker& tracker, int frames, std::mt19937* rng)
+{
+  for (int i = 0; i < frames; ++i)
+    tracker.update(detectionAt(approach(i), kAlong, rng), stamp(i), kCamera);
+}
 }  // namespace
 
 TEST(SpoolTracker, StartsOnADetectionWithAHoleRimAndNotBefore)
@@ -123,8 +131,7 @@ TEST(SpoolTracker, ARibRingsDepthJumpIsRefusedAndThePredictionPublished)
 {
   std::mt19937 rng(3);
   SpoolTracker tracker;
-  for (int i = 0; i < 30; ++i)
-    tracker.update(detectionAt(approach(i), kAlong, &rng), stamp(i), kCamera);
+  feedApproach(tracker, 30, &rng);
   // The rib ring: a concentric circle 60% of the flange's size, taken for it: 30 cm too far.
   cv::Point3d rib = approach(30);
   rib *= 1.0 + 0.3 / rib.z;
@@ -144,8 +151,7 @@ TEST(SpoolTracker, ADropoutOfThreeFramesKeepsTheTrack)
 {
   std::mt19937 rng(5);
   SpoolTracker tracker;
-  for (int i = 0; i < 20; ++i)
-    tracker.update(detectionAt(approach(i), kAlong, &rng), stamp(i), kCamera);
+  feedApproach(tracker, 20, &rng);
   for (int i = 20; i < 23; ++i)
   {
     const TrackedSpool& t = tracker.update(nothing(), stamp(i), kCamera);
@@ -162,8 +168,7 @@ TEST(SpoolTracker, CoastingTooLongLosesTheTrackThenSearches)
   DetectorParams params;
   params.tracker.max_coast = 3;
   SpoolTracker tracker(params);
-  for (int i = 0; i < 10; ++i)
-    tracker.update(detectionAt(approach(i), kAlong, nullptr), stamp(i), kCamera);
+  feedApproach(tracker, 10, nullptr);
   for (int i = 10; i < 13; ++i)
     EXPECT_EQ(tracker.update(nothing(), stamp(i), kCamera).state, TrackState::kCoasting);
   EXPECT_EQ(tracker.update(nothing(), stamp(13), kCamera).state, TrackState::kLost);
@@ -177,8 +182,7 @@ TEST(SpoolTracker, ANeighbourTakesOverOnlyThroughLost)
 {
   std::mt19937 rng(11);
   SpoolTracker tracker;
-  for (int i = 0; i < 20; ++i)
-    tracker.update(detectionAt(approach(i), kAlong, &rng), stamp(i), kCamera);
+  feedApproach(tracker, 20, &rng);
   // From frame 20 the detector reports the spool 40 cm to the right, as well supported.
   std::vector<TrackState> states;
   for (int i = 20; i < 24; ++i)
@@ -204,8 +208,7 @@ TEST(SpoolTracker, AWeakerConsistentCandidateDoesNotEndTheTrack)
 TEST(SpoolTracker, ABagPlayedAgainRestartsTheTrack)
 {
   SpoolTracker tracker;
-  for (int i = 0; i < 30; ++i)
-    tracker.update(detectionAt(approach(i), kAlong, nullptr), stamp(i), kCamera);
+  feedApproach(tracker, 30, nullptr);
   // The loop's first frame: 1.1 m again, stamped earlier. Not refused as a jump: a new track.
   const TrackedSpool& t = tracker.update(detectionAt(approach(0), kAlong, nullptr), stamp(0), kCamera);
   EXPECT_EQ(t.state, TrackState::kTracking);
