@@ -160,7 +160,7 @@ struct TrackerParams
   /// m/s^2, white-noise acceleration of the bore's front centre relative to the camera (the
   /// robot speeding up, braking, turning): the process noise of the constant-velocity model
   double acceleration = 0.3;
-  double axis_drift = 0.001;  ///< rad/sqrt(s), random walk of the spool axis seen from the camera
+  double axis_drift = 0.003;  ///< rad/sqrt(s), random walk of the spool axis seen from the camera
   /// Mahalanobis distance of a detection's position from the prediction beyond which it is
   /// refused (not fused, counted): 4 keeps 99.6% of true detections (3 degrees of freedom)
   double gate = 4.0;
