@@ -41,6 +41,14 @@ public:
   /// The two halves of detect(): gradients of the whole frame once, then edges of any region
   /// at any threshold (the faint hole rim is extracted at a lower threshold in its small window).
   void computeGradients(const cv::Mat& gray8);
+  /// detect() for a search window: gradients and edges inside `region` (px of the raw frame)
+  /// only, the same edges as detect() finds there while `max_edges` does not bind. `gray8` must
+  /// hold the frame's pixels within 2 px of `region` (Preprocessor::process with a region 2 px
+  /// wider). Later extract() calls see only `region`, until the next gradients.
+  void detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges,
+              const cv::Rect& region);
+  /// The raw-frame rectangle (frame of `size`) whose edges can lie in the undistorted `roi`.
+  cv::Rect rawRoi(const cv::Rect& roi, cv::Size size) const;
   /// With `linear`, each edge is then moved along its gradient to where the light crosses
   /// half-way between the levels `linear.reach` px before and after it (at most 2 px): a camera's
   /// gamma puts a blurred edge's gradient peak on its dark side (up to 1.5 px at 640x480 with a
@@ -58,8 +66,9 @@ public:
   void setUndistortion(const CameraIntrinsics& camera);
 
 private:
-  /// The raw-frame rectangle whose edges can lie in the undistorted `roi`.
-  cv::Rect rawRoi(const cv::Rect& roi) const;
+  /// extract() in the raw frame's rectangle `raw` (within computed_).
+  void extractRaw(double threshold, const cv::Rect& raw, std::size_t max_edges, std::vector<EdgePoint>& edges,
+                  const LinearLight* linear);
   /// Drops edges where the lens model has no inverse (no direction, or a position more than the
   /// frame's size off the frame).
   void undistort(std::vector<EdgePoint>& edges) const;
@@ -79,6 +88,7 @@ private:
   CameraIntrinsics lens_;
   cv::Mat undistorted_;  ///< undistortionTable(lens_); empty: edges stay where the frame has them
   cv::Mat gx_, gy_, mag_;
+  cv::Rect computed_;  ///< where gx_, gy_ and mag_ hold this frame's gradients (all of it but the border)
   std::vector<short> column_sum_, column_diff_;   ///< one row's vertical Sobel taps, padded by 1
   std::vector<int> strengths_;                    ///< squared gradient magnitude of each extracted edge
   std::vector<int> selection_;                    ///< scratch for the budget's nth_element

@@ -29,6 +29,13 @@ public:
   /// Runs every stage. `out` is CV_8UC1 of the input's size. Throws std::invalid_argument
   /// when the matrix type does not fit `format` or the image is empty.
   void process(const cv::Mat& image, PixelFormat format, cv::Mat& out);
+  /// process() inside `region` (px of the frame) only, for a search window: `out` is the frame's
+  /// size, with the same pixels as process() inside `region` and 0 outside it; gray() is this
+  /// frame's within filterReach() px of `region`. The thesis' binarize path (whose morphology and
+  /// area opening see whole components) always processes the whole frame.
+  void process(const cv::Mat& image, PixelFormat format, cv::Mat& out, const cv::Rect& region);
+  /// px beyond a pixel that the noise filter reads to compute it.
+  int filterReach() const;
 
   /// The stages one at a time (each `out` may alias nothing else).
   /// toGray() and toBgr() run on the calling thread (cv::cvtColor over the frame as one row:
@@ -60,11 +67,11 @@ private:
   PreprocessParams params_;
   std::vector<std::uint16_t> kernel_;  ///< Gaussian taps, 8.8 fixed point, summing to 256
   std::array<float, 256> linear_light_{};
-  cv::Mat rows_;
+  cv::Mat rows_;  ///< the Gaussian's horizontal pass, the frame's size (a region uses its corner)
   std::vector<std::uint16_t> line_;
   std::vector<std::uint32_t> acc_;
   cv::Mat structuring_element_;
-  cv::Mat gray_, filtered_, binary_, morph_, blur_;
+  cv::Mat gray_, filtered_, binary_, morph_, blur_, blur_view_;
   cv::Mat labels_, stats_, centroids_;
 };
 

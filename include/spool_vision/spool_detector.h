@@ -51,9 +51,11 @@ public:
   /// `median`, `average` and the thesis' binarization, morphology and area opening, which OpenCV
   /// may split among its threads. One detector per thread; different detectors share nothing.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format);
-  /// detect() with the flange searched only in `window` (centres and radii; nothing else
-  /// changes): while a track holds the spool, a concentric rib ring or a neighbour outside the
-  /// window cannot be taken for its flange, and the vote spans a few radii instead of the whole
+  /// detect() with the flange searched only in `window` (centres and radii): while a track holds
+  /// the spool, a concentric rib ring or a neighbour outside the window cannot be taken for its
+  /// flange, only the square the window's rims can reach is preprocessed and searched for edges
+  /// (the same pixels and edges there as detect()'s, but for the edge budget now spent on that
+  /// square alone), and the vote spans a few radii instead of the whole
   /// working range. Without `window`, detect() exactly.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format, const std::optional<FlangeWindow>& window);
   /// The camera the last frame was measured with (the thesis camera when none fit the frame);
@@ -80,6 +82,10 @@ public:
   static constexpr double kRetryHoleScore = 0.35;
   /// The smallest frame the detector accepts (each side, px).
   static constexpr int kMinImageSide = 32;
+  /// A window's flange rim reaches at most this many times its largest radius from the window's
+  /// centres (a turned rim's ellipse, the rim fit's band), plus kWindowPad px.
+  static constexpr double kWindowSlack = 1.08;
+  static constexpr double kWindowPad = 6.0;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);

@@ -302,12 +302,40 @@ void EdgeDetector::computeGradients(const cv::Mat& gray8)
   column_sum_.resize(static_cast<std::size_t>(gray8.cols + 2));
   column_diff_.resize(static_cast<std::size_t>(gray8.cols + 2));
   sobel(gray8, column_sum_.data(), column_diff_.data(), gx_, gy_, mag_);
+  computed_ = cv::Rect(0, 0, gray8.cols, gray8.rows);
 }
 
 void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges)
 {
   computeGradients(gray8);
   extract(threshold, cv::Rect(0, 0, gray8.cols, gray8.rows), max_edges, edges);
+}
+
+void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges,
+                          const cv::Rect& region)
+{
+  const cv::Rect frame(0, 0, gray8.cols, gray8.rows);
+  const cv::Rect inner = region & frame;
+  if (inner == frame)
+  {
+    detect(gray8, threshold, max_edges, edges);
+    return;
+  }
+  gx_.create(gray8.size(), CV_16S);
+  gy_.create(gray8.size(), CV_16S);
+  mag_.create(gray8.size(), CV_32S);
+  // The suppression reads the magnitude 1 px around an edge, the Sobel 1 px around that: over a
+  // rectangle 2 px wider, whose own border replicates, `inner` and 1 px around it come out as in
+  // the whole frame.
+  const cv::Rect padded = cv::Rect(inner.x - 2, inner.y - 2, inner.width + 4, inner.height + 4) & frame;
+  column_sum_.resize(static_cast<std::size_t>(gray8.cols + 2));
+  column_diff_.resize(static_cast<std::size_t>(gray8.cols + 2));
+  cv::Mat gx = gx_(padded);
+  cv::Mat gy = gy_(padded);
+  cv::Mat mag = mag_(padded);
+  sobel(gray8(padded), column_sum_.data(), column_diff_.data(), gx, gy, mag);
+  computed_ = inner;
+  extractRaw(threshold, inner, max_edges, edges, nullptr);
 }
 
 void EdgeDetector::setUndistortion(const CameraIntrinsics& camera)
@@ -319,11 +347,11 @@ void EdgeDetector::setUndistortion(const CameraIntrinsics& camera)
     undistorted_.release();
 }
 
-cv::Rect EdgeDetector::rawRoi(const cv::Rect& roi) const
+cv::Rect EdgeDetector::rawRoi(const cv::Rect& roi, cv::Size size) const
 {
-  if (undistorted_.empty() || undistorted_.size() != mag_.size())
+  if (undistorted_.empty() || undistorted_.size() != size)
     return roi;
-  if ((roi & cv::Rect(0, 0, mag_.cols, mag_.rows)) == cv::Rect(0, 0, mag_.cols, mag_.rows))
+  if ((roi & cv::Rect(0, 0, size.width, size.height)) == cv::Rect(0, 0, size.width, size.height))
     return roi;  // the whole frame (its undistorted image reaches beyond the rectangle)
   // A lens bends the rectangle's sides: their corners and midpoints bound it.
   double x0 = 1e300;
@@ -382,10 +410,16 @@ void EdgeDetector::undistort(std::vector<EdgePoint>& edges) const
 void EdgeDetector::extract(double threshold, const cv::Rect& roi, std::size_t max_edges, std::vector<EdgePoint>& edges,
                            const LinearLight* linear)
 {
+  extractRaw(threshold, rawRoi(roi, mag_.size()), max_edges, edges, linear);
+}
+
+void EdgeDetector::extractRaw(double threshold, const cv::Rect& raw, std::size_t max_edges,
+                              std::vector<EdgePoint>& edges, const LinearLight* linear)
+{
   edges.clear();
   strengths_.clear();
   // The outermost rows and columns have no neighbour on one side for the suppression.
-  const cv::Rect area = rawRoi(roi) & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
+  const cv::Rect area = raw & computed_ & cv::Rect(1, 1, mag_.cols - 2, mag_.rows - 2);
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
   const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();

@@ -110,11 +110,30 @@ void Preprocessor::gaussian(const cv::Mat& gray, cv::Mat& out)
   // Written out so that the per-frame path reuses its buffers (cv::GaussianBlur allocates on every
   // call).
   const int radius = static_cast<int>(kernel_.size() / 2);
-  rows_.create(gray.size(), CV_16U);
+  // A region's size changes every frame: the scratch only ever grows.
+  if (rows_.rows < gray.rows || rows_.cols < gray.cols)
+    rows_.create(std::max(rows_.rows, gray.rows), std::max(rows_.cols, gray.cols), CV_16U);
+  cv::Mat rows = rows_(cv::Rect(0, 0, gray.cols, gray.rows));
   line_.resize(static_cast<size_t>(gray.cols + 2 * radius));
   acc_.resize(static_cast<size_t>(gray.cols));
   out.create(gray.size(), CV_8U);
-  separableBlur(gray, kernel_.data() + radius, radius, line_.data(), rows_, acc_.data(), out);
+  separableBlur(gray, kernel_.data() + radius, radius, line_.data(), rows, acc_.data(), out);
+}
+
+int Preprocessor::filterReach() const
+{
+  switch (params_.filter)
+  {
+    case FilterType::kGaussian:
+    case FilterType::kUnsharp:
+      return static_cast<int>(kernel_.size() / 2);
+    case FilterType::kMedian:
+    case FilterType::kAverage:
+      return params_.filter_kernel / 2;
+    case FilterType::kNone:
+      return 0;
+  }
+  return 0;
 }
 
 namespace
@@ -224,8 +243,11 @@ void Preprocessor::filter(const cv::Mat& gray, cv::Mat& out)
       break;
     case FilterType::kUnsharp:
       // out = gray + amount * (gray - blur(gray)), saturated to 8 bit.
-      gaussian(gray, blur_);
-      cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur_, -params_.unsharp_amount, 0.0, out);
+      if (blur_.rows < gray.rows || blur_.cols < gray.cols)
+        blur_.create(std::max(blur_.rows, gray.rows), std::max(blur_.cols, gray.cols), CV_8U);
+      blur_view_ = blur_(cv::Rect(0, 0, gray.cols, gray.rows));
+      gaussian(gray, blur_view_);
+      cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur_view_, -params_.unsharp_amount, 0.0, out);
       break;
     case FilterType::kNone:
       gray.copyTo(out);
@@ -295,6 +317,33 @@ void Preprocessor::process(const cv::Mat& image, PixelFormat format, cv::Mat& ou
   binarize(filtered_, binary_);
   morphology(binary_, morph_);
   areaOpening(morph_, out);
+}
+
+void Preprocessor::process(const cv::Mat& image, PixelFormat format, cv::Mat& out, const cv::Rect& region)
+{
+  const cv::Rect frame(0, 0, image.cols, image.rows);
+  const cv::Rect inner = region & frame;
+  if (inner == frame || params_.binarize != BinarizeType::kNone)
+  {
+    process(image, format, out);
+    return;
+  }
+  checkFrame(image, format);
+  // The filter reads filterReach() px around each pixel: computed over the padded rectangle,
+  // whose own border replicates, `inner` comes out as in the whole frame (the frame's border
+  // replicates the same way where the padding meets it).
+  const int reach = filterReach();
+  const cv::Rect padded =
+      cv::Rect(inner.x - reach, inner.y - reach, inner.width + 2 * reach, inner.height + 2 * reach) & frame;
+  gray_.create(image.size(), CV_8U);
+  filtered_.create(image.size(), CV_8U);
+  out.create(image.size(), CV_8U);
+  cv::Mat gray = gray_(padded);
+  toGray(image(padded), format, gray);
+  cv::Mat filtered = filtered_(padded);
+  filter(gray, filtered);
+  out.setTo(0);
+  filtered_(inner).copyTo(out(inner));
 }
 
 }  // namespace spool_vision

@@ -101,8 +101,24 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const SpoolGeometry& geometry = geometryFor(image.size());
   const HoughParams& hp = params_.hough;
 
-  preprocessor_.process(image, format, preprocessed_);
-  edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_);
+  if (window)
+  {
+    // Only the pixels the window's flanges can reach are preprocessed and searched for edges:
+    // the centre window plus the largest radius, an oblique rim's wider semi-axis and the
+    // rim fit's band (kWindowSlack), in raw frame px.
+    const double reach = window->centre_margin + kWindowSlack * (window->radius + window->radius_margin) + kWindowPad;
+    const cv::Rect undistorted(cvFloor(window->centre.x - reach), cvFloor(window->centre.y - reach),
+                               cvCeil(2.0 * reach) + 1, cvCeil(2.0 * reach) + 1);
+    const cv::Rect region = edge_detector_.rawRoi(undistorted, image.size());
+    preprocessor_.process(image, format, preprocessed_,
+                          cv::Rect(region.x - 2, region.y - 2, region.width + 4, region.height + 4));
+    edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_, region);
+  }
+  else
+  {
+    preprocessor_.process(image, format, preprocessed_);
+    edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_);
+  }
 
   double flange_min = 0.0;
   double flange_max = 0.0;

@@ -400,3 +400,44 @@ TEST(HoughAccumulator, FitCentreAtSizePlacesABlurredHalfRimToAFewHundredthsOfAPi
   EXPECT_GT(on_rim.y - y, 0.6 * inset);
   EXPECT_GT(at_inset.score, 0.9);
 }
+
+TEST(EdgeDetector, ARegionFindsTheWholeFramesEdgesInsideIt)
+{
+  SceneStyle style;
+  const cv::Mat gray = drawSceneGray({200, 150}, {{100.0, 75.0, 50.0, 12.0}, {175.0, 30.0, 35.0, 8.0}}, style);
+  cv::Mat smooth;
+  cv::GaussianBlur(gray, smooth, cv::Size(), 1.0);
+  const std::vector<EdgePoint> whole = edgesOf(smooth, 0.05);
+  for (const cv::Rect& region : {cv::Rect(40, 20, 90, 80), cv::Rect(0, 0, 70, 60), cv::Rect(150, 10, 80, 60)})
+  {
+    EdgeDetector detector;
+    std::vector<EdgePoint> part;
+    detector.detect(smooth, 0.05, kNoBudget, part, region);
+    ASSERT_FALSE(part.empty()) << region;
+    // Every edge found is the whole frame's, bit for bit; every whole-frame edge a pixel inside
+    // the region is found (an edge's sub-pixel shift is at most half a pixel from its pixel).
+    auto same = [](const EdgePoint& a, const EdgePoint& b)
+    { return a.x == b.x && a.y == b.y && a.dx == b.dx && a.dy == b.dy; };
+    for (const EdgePoint& e : part)
+    {
+      EXPECT_LE(std::hypot(e.x - std::clamp<float>(e.x, region.x, region.br().x - 1),
+                           e.y - std::clamp<float>(e.y, region.y, region.br().y - 1)),
+                0.5f);
+      EXPECT_TRUE(std::any_of(whole.begin(), whole.end(), [&](const EdgePoint& w) { return same(e, w); }))
+          << e.x << "," << e.y;
+    }
+    const cv::Rect well_inside(region.x + 1, region.y + 1, region.width - 2, region.height - 2);
+    for (const EdgePoint& w : whole)
+    {
+      if (well_inside.contains({cvRound(w.x), cvRound(w.y)}))
+      {
+        EXPECT_TRUE(std::any_of(part.begin(), part.end(), [&](const EdgePoint& e) { return same(e, w); }))
+            << w.x << "," << w.y;
+      }
+    }
+    // Later extractions see only the region.
+    std::vector<EdgePoint> later;
+    detector.extract(0.05, cv::Rect(0, 0, smooth.cols, smooth.rows), kNoBudget, later);
+    EXPECT_EQ(later.size(), part.size());
+  }
+}

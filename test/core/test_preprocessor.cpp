@@ -242,3 +242,41 @@ TEST(Preprocessor, GaussianMatchesOpenCvsWithinTwoGreyLevels)
     EXPECT_EQ(cv::countNonZero(ours != 201), 0) << sigma_px;
   }
 }
+
+TEST(Preprocessor, ARegionHasTheWholeFramesPixelsInsideItAndNothingOutside)
+{
+  // A textured colour frame: every filter's reach crosses the region's sides.
+  cv::Mat bgr(90, 120, CV_8UC3);
+  cv::RNG(11).fill(bgr, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(bgr, bgr, cv::Size(), 1.5);
+  cv::Mat mono;
+  Preprocessor::toGray(bgr, PixelFormat::kBgr8, mono);
+  const std::vector<cv::Rect> regions = {{30, 20, 50, 40}, {0, 0, 40, 35}, {90, 60, 100, 100}, {-5, 70, 20, 40}};
+  for (FilterType f :
+       {FilterType::kGaussian, FilterType::kUnsharp, FilterType::kMedian, FilterType::kAverage, FilterType::kNone})
+  {
+    PreprocessParams p;
+    p.filter = f;
+    p.filter_sigma = 2.0 / kFocal;
+    p.filter_kernel = 5;
+    Preprocessor pre(p, kFocal);
+    for (const auto& [image, format] :
+         {std::make_pair(bgr, PixelFormat::kBgr8), std::make_pair(mono, PixelFormat::kMono8)})
+    {
+      cv::Mat whole;
+      pre.process(image, format, whole);
+      for (const cv::Rect& region : regions)
+      {
+        cv::Mat part;
+        pre.process(image, format, part, region);
+        ASSERT_EQ(part.size(), image.size());
+        const cv::Rect inside = region & cv::Rect(0, 0, image.cols, image.rows);
+        EXPECT_EQ(cv::norm(whole(inside), part(inside), cv::NORM_INF), 0.0)
+            << "filter " << static_cast<int>(f) << " region " << region;
+        cv::Mat outside = part.clone();
+        outside(inside).setTo(0);
+        EXPECT_EQ(cv::countNonZero(outside), 0) << "filter " << static_cast<int>(f) << " region " << region;
+      }
+    }
+  }
+}

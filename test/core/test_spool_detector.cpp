@@ -291,3 +291,33 @@ TEST(SpoolDetector, SteadyStateDoesNotAllocate)
   EXPECT_TRUE(d.detected);
   EXPECT_EQ(g_allocations.load(), 0);
 }
+
+TEST(SpoolDetector, AWindowAroundTheSpoolMeasuresItAsTheWholeFrameDoes)
+{
+  // Only the window's square is preprocessed and searched for edges; the spool inside it comes
+  // out as the whole frame's search measures it, a neighbour outside it is not seen.
+  SpoolDetector detector;
+  const DrawnSpool target = spoolAt(kVga, 0.9, -0.05, 0.06);
+  const DrawnSpool neighbour = spoolAt(kVga, 0.9, 0.55, 0.06);
+  const cv::Mat frame = drawScene({640, 480}, {target, neighbour});
+  const SpoolDetection whole = detector.detect(frame, PixelFormat::kBgr8);
+  ASSERT_TRUE(whole.hole_detected);
+  spool_vision::FlangeWindow window;
+  window.centre = {whole.flange.x, whole.flange.y};
+  window.radius = whole.flange.r;
+  window.centre_margin = 6.0;
+  window.radius_margin = 0.1 * whole.flange.r;
+  const SpoolDetection windowed = detector.detect(frame, PixelFormat::kBgr8, window);
+  ASSERT_TRUE(windowed.hole_detected);
+  EXPECT_NEAR(windowed.flange.x, whole.flange.x, 0.02);
+  EXPECT_NEAR(windowed.flange.y, whole.flange.y, 0.02);
+  EXPECT_NEAR(windowed.flange.r, whole.flange.r, 0.02);
+  EXPECT_NEAR(windowed.hole.x, whole.hole.x, 0.02);
+  EXPECT_NEAR(windowed.distance, whole.distance, 1e-4);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(windowed.axis[i], whole.axis[i], 1e-4);
+  // The preprocessed frame is blank beyond the window's reach (the neighbour's side).
+  const cv::Mat& pre = detector.preprocessed();
+  EXPECT_EQ(cv::countNonZero(pre(cv::Rect(600, 0, 40, 480))), 0);
+  EXPECT_GT(cv::countNonZero(pre(cv::Rect(cvRound(whole.flange.x) - 5, cvRound(whole.flange.y) - 5, 10, 10))), 0);
+}
