@@ -57,10 +57,12 @@ struct TrackedSpool
   int rejected = 0;  ///< detections refused by the gate since the track started
   /// This frame's detection disagreed with the prediction by more than track_gate (Mahalanobis)
   bool rejected_now = false;
-  bool fused_now = false;                                  ///< this frame's detection was fused
-  cv::Point3d position{kNaN, kNaN, kNaN};                  ///< the bore's front centre, filtered (m)
-  cv::Vec3d velocity{kNaN, kNaN, kNaN};                    ///< its velocity relative to the camera (m/s)
-  cv::Matx33d position_covariance = cv::Matx33d::zeros();  ///< m^2, row-major
+  bool fused_now = false;                  ///< this frame's detection was fused
+  cv::Point3d position{kNaN, kNaN, kNaN};  ///< the bore's front centre, filtered (m)
+  cv::Vec3d velocity{kNaN, kNaN, kNaN};    ///< its velocity relative to the camera (m/s)
+  /// m^2, row-major: the filter's, plus one detection's own (its errors are correlated from frame
+  /// to frame and biased per approach: no filtering removes them)
+  cv::Matx33d position_covariance = cv::Matx33d::zeros();
   cv::Vec3d axis{kNaN, kNaN, kNaN};  ///< unit spool axis into the spool; NaN until a hole rim gave one
   double axis_sigma = kNaN;          ///< rad, 1 sigma of the axis's direction (the larger slope's)
   /// The puller's miss of the bore's axis at its front and at bore_length_max along it (m), and
@@ -125,6 +127,8 @@ private:
   /// the stronger evidence (another spool, or the track was wrong): the track is lost.
   bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   void publish(bool fused);
+  /// The filter's position covariance plus the depth bias it cannot average out (bias_).
+  Eigen::Matrix3d publishedCovariance() const;
   void decideAligned();
 
   DetectorParams params_;
@@ -133,6 +137,10 @@ private:
   bool active_ = false;
   Vector6 x_ = Vector6::Zero();  ///< position (m), velocity (m/s)
   Matrix6 p_ = Matrix6::Zero();
+  /// The last fused detection's covariance (its radius sigma at least the measured per-sequence
+  /// bias) taken as a bias of the track (m^2, camera frame): published on top of p_ and used for
+  /// aligned, never in the gate (which compares detections sharing that bias)
+  Eigen::Matrix3d bias_ = Eigen::Matrix3d::Zero();
   Eigen::Vector2d axis_ = Eigen::Vector2d::Zero();  ///< the axis's slopes (x/z, y/z)
   Eigen::Matrix2d axis_p_ = Eigen::Matrix2d::Zero();
   bool axis_known_ = false;
