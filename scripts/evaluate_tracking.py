@@ -3,10 +3,12 @@
 
     evaluate_tracking.py [--out FILE] [--quick] [--work DIR] [--sizes WxH,...] [--seeds S,S-S,...]
                          [--count N] [--rate HZ] [--dropout I,...] [--dropout-length N] [--jobs N]
-                         [--fresh] [--config FILE] [--bin DIR]
+                         [--fresh] [--config FILE] [--bin DIR] [--set approach|approach_hard]
 
 Each seed is one approach sequence: spool_render's `approach` set (one spool from 110 cm to 51 cm
-deep, the lateral and heading errors gone by about 62 cm, the last frames inside 60 cm aligned),
+deep, the lateral and heading errors gone by about 62 cm, the last frames inside 60 cm aligned;
+--set approach_hard: the same path through a webcam with ribbed, labelled faces, clutter and
+driving blur, half of the approaches ending just off, where the puller would touch),
 --count frames (default 40, spool_render's default and the rendered approach bag's), rendered at
 each size into --work (default $SPOOL_WS/tracking_eval, outside the repository; reused while the
 renderer is unchanged, unless --fresh). The renderer has no clock: the frames are taken at --rate
@@ -88,6 +90,9 @@ def parse_args(argv):
     p.add_argument("--sizes", default="160x120,320x240,640x480,1280x720", help="image sizes (default: all four)")
     p.add_argument("--seeds", help="approach seeds, e.g. 31-40 or 31,35 (default 31-40, --quick 31-33)")
     p.add_argument("--count", type=int, default=40, help="frames per approach (default 40)")
+    p.add_argument("--set", default="approach", choices=("approach", "approach_hard"),
+                   help="spool_render set (default approach; approach_hard: webcam imaging, ribs, labels, driving "
+                        "blur, half of the approaches ending just off)")
     p.add_argument("--rate", type=float, default=10.0, help="Hz the approach is taken at (default 10)")
     p.add_argument("--dropout", help="first frame of each dropout (default: count/2 and count*3/4, 20,30)")
     p.add_argument("--dropout-length", type=int, default=3, help="consecutive frames dropped (default 3)")
@@ -150,7 +155,7 @@ def dropped(args, start):
 def run_sequence(args, size, seed):
     """Renders one approach (unless a matching render exists) and runs every mode on it."""
     t0 = time.time()
-    folder, reused = mem.render_folder(args, size, "approach", seed, args.count)
+    folder, reused = mem.render_folder(args, size, args.set, seed, args.count)
     t1 = time.time()
     cam = ["--camera-info", os.path.join(folder, "camera_info.yaml")]
     detect = [os.path.join(args.tools, "spool_detect")] + args.passes["default"] + cam
@@ -196,7 +201,7 @@ def outcome(size, seed, mode, t, d):
         return "missed"
     f = d.get("flange")
     if f and f.get("r", 0) > 0:
-        o = mem.measure(size, "approach", seed, mode, t, d)["outcome"]
+        o = mem.measure(size, t.get("set", "approach"), seed, mode, t, d)["outcome"]
         return {"target": "target", "neighbour": "other_spool", "wrong_target": "other_spool"}.get(o, "no_spool")
     # A coasting frame has no rims: where its position projects into the image.
     p, cam = d.get("position") or {}, t["camera"]
@@ -433,10 +438,10 @@ def fmt(v, digits=1, sign=False):
 
 
 def markdown(args, summary, drop, fails, seqs, index_check, meta):
-    L = ["Sequences: spool_render `approach`, %d frames at %g Hz (%.2f m/s), seeds %s; per-frame = `spool_detect`, "
+    L = ["Sequences: spool_render `%s`, %d frames at %g Hz (%.2f m/s), seeds %s; per-frame = `spool_detect`, "
          "tracked = `spool_detect --track --rate %g`. Depth error: |distance - true depth| / true depth on every "
          "frame that reports a distance. Aligned needs 1/fy <= aligned_max_pixel_angle (fy >= 667 px): never at "
-         "160x120 and 320x240, by design." % (args.count, args.rate, 0.59 * args.rate / (args.count - 1),
+         "160x120 and 320x240, by design." % (args.set, args.count, args.rate, 0.59 * args.rate / (args.count - 1),
                                             ",".join(map(str, args.seeds)), args.rate), "",
          "### Accuracy and aligned", "",
          "| size | mode | frames | depth err >3% / >1% | max depth err % | median on target % | other spool / no spool "
@@ -585,7 +590,8 @@ def main(argv):
     drop = {res: {"dropout_%d" % s: dropout_summary(args, frames[(res, "dropout_%d" % s)], s) for s in args.dropout}
             for res in sizes}
     fails = {res: {m: failures(frames[(res, m)]) for m in ("per_frame", "tracked")} for res in sizes}
-    meta = {"date": datetime.date.today().isoformat(), "sizes": sizes, "seeds": args.seeds, "count": args.count,
+    meta = {"date": datetime.date.today().isoformat(), "set": args.set, "sizes": sizes, "seeds": args.seeds,
+            "count": args.count,
             "rate_hz": args.rate, "speed_m_s": 0.59 * args.rate / (args.count - 1), "dropout_starts": args.dropout,
             "dropout_length": args.dropout_length, "config": args.config or "built-in defaults (= config/default.yaml)",
             "quick": args.quick, "run_time_s": round(elapsed, 1), "tools_built": built, "source": mem.git_state(),
@@ -595,8 +601,8 @@ def main(argv):
             "unsafe_rule": "aligned true where the truth's puller_clears is false",
             "target_rule": "measure_error_model.measure (flange centre within max(3 px, 0.1 r) of the truth's); a "
                            "coasting frame by its position projected through the truth's camera"}
-    print("## Tracker over approach sequences (%s; seeds %s; %d sequences; %.0f s)\n"
-          % (meta["date"], ",".join(map(str, args.seeds)), len(jobs), elapsed))
+    print("## Tracker over approach sequences (%s; set %s; seeds %s; %d sequences; %.0f s)\n"
+          % (meta["date"], args.set, ",".join(map(str, args.seeds)), len(jobs), elapsed))
     seqs = per_sequence(frames, sizes, args.seeds, modes)
     print(markdown(args, summary, drop, fails, seqs, index_check, meta))
     out = {"meta": meta, "summary": summary, "dropout": drop, "sequences": seqs, "failures": fails}

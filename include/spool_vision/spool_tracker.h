@@ -89,8 +89,11 @@ public:
   /// One frame: `detection` as SpoolDetector::detect() gave it for a frame stamped `stamp` (s,
   /// any epoch) from a camera of `camera` (the detector's: its focal length and image height
   /// pick the error model). A stamp before the last one (a bag played again) or more than
-  /// kMaxGap after it restarts the search.
-  const TrackedSpool& update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera);
+  /// kMaxGap after it restarts the search. `whole_frame`: the detection came from a search of the
+  /// whole frame, not of flangeWindow(): two such detections in a row (whatever windowed frames
+  /// lie between) refused by the gate, agreeing with each other and as strong, end the track.
+  const TrackedSpool& update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera,
+                             bool whole_frame = true);
 
   const TrackedSpool& current() const
   {
@@ -125,7 +128,8 @@ private:
   void fuseAxis(const SpoolDetection& detection, const MeasurementNoise& noise);
   /// Counts a refused detection; true when it and the one before agree with each other and are
   /// the stronger evidence (another spool, or the track was wrong): the track is lost.
-  bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
+  bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera,
+                   bool whole_frame);
   void publish(bool fused);
   /// The filter's position covariance plus the depth bias it cannot average out (bias_).
   Eigen::Matrix3d publishedCovariance() const;
@@ -149,9 +153,16 @@ private:
   int coasted_ = 0;          ///< frames in a row without a fused detection
   int confirmed_ = 0;        ///< frames in a row whose filtered state cleared the bore
   double support_ = 0.0;     ///< confidence of the last fused detection
-  int refuting_ = 0;         ///< refused detections in a row that agree with each other
-  cv::Point3d refuter_;      ///< the last refused detection's position
-  Eigen::Matrix3d refuter_cov_ = Eigen::Matrix3d::Zero();
+  /// Refused detections that agree with each other: how many, the last one's offset from the
+  /// track (m) and its covariance
+  struct Refuter
+  {
+    int count = 0;
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  };
+  Refuter consecutive_;  ///< in consecutive frames
+  Refuter whole_frame_;  ///< in consecutive whole-frame searches
 };
 
 /// One frame through the detector and the tracker, as the node and spool_detect --track run it.

@@ -166,11 +166,12 @@ void SpoolTracker::reset()
   active_ = false;
   axis_known_ = false;
   last_stamp_.reset();
-  coasted_ = confirmed_ = refuting_ = 0;
+  coasted_ = confirmed_ = consecutive_.count = whole_frame_.count = 0;
   tracked_ = TrackedSpool();
 }
 
-const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera)
+const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera,
+                                         bool whole_frame)
 {
   const bool time_jumped = last_stamp_ && (stamp < *last_stamp_ || stamp - *last_stamp_ > kMaxGap);
   const double dt = last_stamp_ && !time_jumped ? stamp - *last_stamp_ : 0.0;
@@ -211,9 +212,11 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
       bias_ = correlatedCovariance(detection, noise, camera, params_.tracker);
       fuseAxis(detection, noise);
       support_ = detection.confidence;
-      refuting_ = 0;
+      consecutive_.count = 0;
+      if (whole_frame)
+        whole_frame_.count = 0;
     }
-    else if (refuteTrack(detection, noise, camera))
+    else if (refuteTrack(detection, noise, camera, whole_frame))
     {
       tracked_.state = TrackState::kLost;
       tracked_.aligned = false;
@@ -245,7 +248,7 @@ void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise
   axis_known_ = false;
   fuseAxis(detection, noise);
   support_ = detection.confidence;
-  coasted_ = confirmed_ = refuting_ = 0;
+  coasted_ = confirmed_ = consecutive_.count = whole_frame_.count = 0;
   tracked_ = TrackedSpool();
   tracked_.age = 0;
 }
@@ -323,25 +326,35 @@ void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNo
 }
 
 bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise,
-                               const CameraIntrinsics& camera)
+                               const CameraIntrinsics& camera, bool whole_frame)
 {
   ++tracked_.rejected;
   tracked_.rejected_now = true;
+  // Relative to the track: the camera's motion moves both alike (the spools stand still).
+  const Eigen::Vector3d offset = toEigen(detection.position) - x_.head<3>();
   const Eigen::Matrix3d cov = positionCovariance(detection, noise, camera);
-  bool agrees = false;
-  if (refuting_ > 0)
+  auto count = [&](Refuter& refuter)
   {
     // Two refused detections of one other thing agree with each other within both their errors
-    // and what the camera can have moved in between (as much as the track's own uncertainty).
-    const Eigen::Vector3d d = toEigen(detection.position) - toEigen(refuter_);
-    const Eigen::Matrix3d s = cov + refuter_cov_ + p_.topLeftCorner<3, 3>();
-    agrees = d.dot(s.ldlt().solve(d)) <= params_.tracker.gate * params_.tracker.gate;
-  }
-  refuting_ = agrees ? refuting_ + 1 : 1;
-  refuter_ = detection.position;
-  refuter_cov_ = cov;
+    // and the track's own uncertainty.
+    bool agrees = false;
+    if (refuter.count > 0)
+    {
+      const Eigen::Vector3d d = offset - refuter.offset;
+      const Eigen::Matrix3d s = cov + refuter.cov + p_.topLeftCorner<3, 3>();
+      agrees = d.dot(s.ldlt().solve(d)) <= params_.tracker.gate * params_.tracker.gate;
+    }
+    refuter.count = agrees ? refuter.count + 1 : 1;
+    refuter.offset = offset;
+    refuter.cov = cov;
+    return refuter.count >= 2;
+  };
+  // In a row, or on whole-frame searches in a row (a windowed search between them keeps finding
+  // the track's spool, which a neighbour taken at first sight would stay forever).
+  const bool consistent = count(consecutive_);
+  const bool consistent_whole = whole_frame && count(whole_frame_);
   // The stronger evidence: a hole rim at least as well supported as the track's last fused one.
-  return refuting_ >= 2 && detection.hole_detected && detection.confidence >= support_;
+  return (consistent || consistent_whole) && detection.hole_detected && detection.confidence >= support_;
 }
 
 void SpoolTracker::publish(bool fused)
@@ -459,7 +472,7 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
     frame.raw.time_ms += windowed_ms;
   }
   since_full_search_ = frame.full_search ? 0 : since_full_search_ + 1;
-  frame.track = tracker_.update(frame.raw, stamp, detector_.camera());
+  frame.track = tracker_.update(frame.raw, stamp, detector_.camera(), frame.full_search);
   frame.published = trackedDetection(frame.raw, frame.track, detector_.params().geometry);
   return frame;
 }

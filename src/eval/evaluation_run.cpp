@@ -263,6 +263,7 @@ int FrameCounts::of(FrameSet set) const
     case FrameSet::kDistorted:
       return distorted;
     case FrameSet::kApproach:
+    case FrameSet::kApproachHard:
       break;
   }
   return 0;

@@ -12,11 +12,12 @@ namespace
 {
 constexpr double kDeg = M_PI / 180.0;
 
-constexpr std::array<std::pair<FrameSet, const char*>, 5> kSetNames = {{{FrameSet::kMain, "main"},
+constexpr std::array<std::pair<FrameSet, const char*>, 6> kSetNames = {{{FrameSet::kMain, "main"},
                                                                         {FrameSet::kApproach, "approach"},
                                                                         {FrameSet::kNegatives, "negatives"},
                                                                         {FrameSet::kHard, "hard"},
-                                                                        {FrameSet::kDistorted, "distorted"}}};
+                                                                        {FrameSet::kDistorted, "distorted"},
+                                                                        {FrameSet::kApproachHard, "approach_hard"}}};
 
 std::uint64_t frameSeed(std::uint64_t seed, int index)
 {
@@ -83,13 +84,16 @@ void nearAlignedFrame(std::uint64_t set_seed, int index, SceneParams& scene, Cam
 
 // One frame of an approach: 110 cm to 50 cm of depth (distance is depth: ending at 50 cm of
 // range would leave the last frame 3.6 mm short of the insertion window), the lateral and
-// heading errors shrink to zero by 80% of the way (about 62 cm), so the last frames inside 60 cm
-// are aligned.
-void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& scene, CameraPose& pose)
+// heading errors shrink by 80% of the way (about 62 cm) to zero, so the last frames inside 60 cm
+// are aligned. `hard` (approach_hard): the hard set's webcam, faces (ribs, labels, gloss) and
+// clutter on the shared shelf, a radial smear from driving at 10-30 cm/s, and half of the
+// approaches ending just off instead: the puller aimed at the bore's front centre but turned
+// 0.8-1.3 deg (its back end 2.8-4.5 mm off the bore's axis), or parallel 2.8-4 mm beside it.
+void approachFrame(std::uint64_t set_seed, int index, int count, bool hard, SceneParams& scene, CameraPose& pose)
 {
   const std::uint64_t shelf_seed = ~frameSeed(set_seed, 0);  // the shelf shared by all frames
   cv::RNG rng(shelf_seed);
-  scene = randomScene(SceneKind::kSpool, shelf_seed);
+  scene = hard ? randomHardScene(SceneKind::kSpool, shelf_seed) : randomScene(SceneKind::kSpool, shelf_seed);
   const double lateral0 = (rng.uniform(0, 2) ? 1.0 : -1.0) * rng.uniform(0.05, 0.15);
   const double heading0 = rng.uniform(-3.0, 3.0) * kDeg;
   const double s = count > 1 ? static_cast<double>(index) / (count - 1) : 1.0;
@@ -98,8 +102,30 @@ void approachFrame(std::uint64_t set_seed, int index, int count, SceneParams& sc
   // 110 to 51 cm deep: the last frame inside the insertion window, not on its 50 cm edge, where
   // a tenth of a millimetre of depth error would decide it.
   const double depth = 1.10 - 0.59 * s;
-  pose.lateral = lateral0 * left;
-  pose.yaw = heading0 * left;
+  double end_lateral = 0.0;
+  double end_heading = 0.0;
+  if (hard)
+  {
+    // Drawn after the plain approach's draws, which so stay the same.
+    const double side = rng.uniform(0, 2) ? 1.0 : -1.0;
+    const int ending = rng.uniform(0, 4);  // 0, 1: aligned; 2: turned; 3: beside
+    if (ending == 2)
+      end_heading = side * rng.uniform(0.8, 1.3) * kDeg;
+    else if (ending == 3)
+      end_lateral = side * rng.uniform(0.0028, 0.004);
+    // A point at the image corner (~400 px at 480 rows) moves 400 v t / z px in a 1/30 s exposure.
+    const double speed = rng.uniform(0.1, 0.3);
+    scene.motion_blur = 400.0 * speed / 30.0 / depth;
+    scene.motion_blur_radial = true;
+    // The rod's top edge below the hole's bottom rim in the image, as in the hard set.
+    const double rod_top = SpoolRenderer::kPullerOffsetY - 0.5 * SpoolRenderer::kPullerDiameter;
+    const double hole_bottom = (SpoolRenderer::kPullerOffsetY + 0.5 * scene.hole_diameter) / depth;
+    scene.puller_rod_length = std::min(scene.puller_rod_length, 0.8 * rod_top / hole_bottom);
+  }
+  pose.yaw = heading0 * left + end_heading * (1.0 - left);
+  // A turned ending keeps the puller aimed at the bore's front centre (it meets the face plane
+  // depth tan(yaw) to the side of where the camera stands).
+  pose.lateral = lateral0 * left + (end_lateral - depth * std::tan(end_heading)) * (1.0 - left);
   pose.height = SpoolRenderer::kPullerOffsetY;  // the puller at the axis's height
   pose.pitch = 0.0;
   pose.distance = std::sqrt(depth * depth + pose.height * pose.height + pose.lateral * pose.lateral);
@@ -135,8 +161,8 @@ CameraPose bearingPose(double distance, double bearing, double heading, double h
 
 void setFrame(FrameSet set, std::uint64_t seed, int index, int count, SceneParams& scene, CameraPose& pose)
 {
-  if (set == FrameSet::kApproach)
-    approachFrame(seed, index, count, scene, pose);
+  if (set == FrameSet::kApproach || set == FrameSet::kApproachHard)
+    approachFrame(seed, index, count, set == FrameSet::kApproachHard, scene, pose);
   else if (set == FrameSet::kDistorted && index % 3 == 2)
     nearAlignedFrame(seed, index, scene, pose);
   else
@@ -156,7 +182,7 @@ CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
   CameraIntrinsics camera = CameraIntrinsics::thesisDefault(size.width, size.height);
   if (focal > 0.0)
     camera.fx = camera.fy = focal;
-  if (set == FrameSet::kHard)
+  if (set == FrameSet::kHard || set == FrameSet::kApproachHard)
   {
     camera.cx += 0.015 * size.width;
     camera.cy -= 0.012 * size.height;

@@ -26,12 +26,13 @@ namespace
 {
 const char* const kUsage =
     "usage: spool_render --out DIR --width W --height H [--focal F] [--distortion D] [--count N]\n"
-    "                    [--seed S] [--set main|approach|negatives|hard|distorted]\n"
+    "                    [--seed S] [--set main|approach|negatives|hard|distorted|approach_hard]\n"
     "  --focal F   focal length in px (default: the thesis camera, 200 px at 120 rows)\n"
     "  --distortion D  lens distortion, OpenCV/ROS order: k1,k2,p1,p2[,k3] (plumb_bob) or\n"
     "              k1,k2,p1,p2,k3,k4,k5,k6 (rational_polynomial); default: the set's lens\n"
     "              (none; distorted: -0.2,0.05,0.001,-0.0005,0)\n"
-    "  --count N   frames (default: main, hard and distorted 500, approach 40, negatives 100)\n"
+    "  --count N   frames (default: main, hard and distorted 500, approach and approach_hard 40,\n"
+    "              negatives 100)\n"
     "  --seed S    the set is a function of the seed (default 1)\n"
     "  --set       main: spools at 50-110 cm and +-20 deg bearing plus ~15% negatives;\n"
     "              approach: one spool from 110 cm to 50 cm, ending aligned;\n"
@@ -39,7 +40,10 @@ const char* const kUsage =
     "              hard: main's poses with webcam effects (auto exposure, gain noise, MJPEG,\n"
     "              blur), glossy ribbed faces, dark bores, clutter and the puller rod in view;\n"
     "              distorted: main's frames through a C270-like lens, every third frame near\n"
-    "              the end of an approach (48-62 cm, puller within a few mm of the bore axis)\n"
+    "              the end of an approach (48-62 cm, puller within a few mm of the bore axis);\n"
+    "              approach_hard: approach's path with hard's webcam, faces and clutter, blur\n"
+    "              from driving at 10-30 cm/s; half of the seeds end just off (the puller\n"
+    "              turned 0.8-1.3 deg or 2.8-4 mm beside the bore axis: it would touch)\n"
     "Writes DIR/frame_%05d.png, DIR/frame_%05d.json and DIR/camera_info.yaml.\n";
 
 struct Options
@@ -91,7 +95,8 @@ Options parseOptions(int argc, char** argv)
   o.set = line.text("--set", o.set);
   const std::optional<sv::FrameSet> set = sv::frameSetNamed(o.set);
   if (!set)
-    throw UsageError("--set: expected main, approach, negatives, hard or distorted, got '" + o.set + "'");
+    throw UsageError("--set: expected main, approach, negatives, hard, distorted or approach_hard, got '" + o.set +
+                     "'");
   o.frame_set = *set;
   if (o.out.empty())
     throw UsageError("--out is required");
@@ -100,7 +105,9 @@ Options parseOptions(int argc, char** argv)
   if (o.width < 32 || o.height < 32)
     throw UsageError("--width/--height: at least 32 px");
   if (o.count == 0)
-    o.count = o.frame_set == sv::FrameSet::kApproach ? 40 : (o.frame_set == sv::FrameSet::kNegatives ? 100 : 500);
+    o.count = o.frame_set == sv::FrameSet::kApproach || o.frame_set == sv::FrameSet::kApproachHard
+                  ? 40
+                  : (o.frame_set == sv::FrameSet::kNegatives ? 100 : 500);
   return o;
 }
 

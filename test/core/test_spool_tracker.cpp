@@ -194,6 +194,40 @@ TEST(SpoolTracker, ANeighbourTakesOverOnlyThroughLost)
   EXPECT_EQ(tracker.current().age, 2);
 }
 
+TEST(SpoolTracker, ANeighbourTakenAtFirstSightGivesWayToTheWholeFramesTarget)
+{
+  // The first whole-frame search took the neighbour 40 cm to the right; the windowed searches
+  // between whole-frame ones keep finding it, while every 10th frame the whole frame's target is
+  // the spool ahead. Its second refusal in a row among the whole-frame searches ends the track,
+  // though windowed frames were fused in between; the next whole-frame search starts the new
+  // one, whose windows then hold the spool ahead.
+  std::mt19937 rng(31);
+  SpoolTracker tracker;
+  std::vector<int> lost_at;
+  for (int i = 0; i < 40; ++i)
+  {
+    const bool whole = i % 10 == 0 || tracker.current().state == TrackState::kLost;
+    const double lateral = i == 0 || (!whole && i < 20) ? 0.4 : 0.0;
+    const TrackedSpool& t =
+        tracker.update(detectionAt(approach(i, 1.1, lateral), kAlong, &rng), stamp(i), kCamera, whole);
+    if (t.state == TrackState::kLost)
+      lost_at.push_back(i);
+  }
+  EXPECT_EQ(lost_at, std::vector<int>{20});
+  EXPECT_EQ(tracker.current().state, TrackState::kTracking);
+  EXPECT_EQ(tracker.current().age, 19);  // from frame 21
+  EXPECT_NEAR(tracker.current().position.x, 0.0, 0.01);
+  // Windowed refusals in between do not count as whole-frame ones, nor the other way round: a
+  // rib ring refused on single windowed frames among fused ones never ends the track.
+  SpoolTracker held;
+  for (int i = 0; i < 40; ++i)
+  {
+    const bool ring = i > 5 && i % 3 == 0;
+    const cv::Point3d at = ring ? approach(i) * 1.5 : approach(i);
+    EXPECT_NE(held.update(detectionAt(at, kAlong, &rng), stamp(i), kCamera, false).state, TrackState::kLost) << i;
+  }
+}
+
 TEST(SpoolTracker, AWeakerConsistentCandidateDoesNotEndTheTrack)
 {
   SpoolTracker tracker;

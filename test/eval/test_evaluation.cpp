@@ -106,13 +106,13 @@ TEST(LabelledSets, EachSetHasOneNameThatReadsBack)
 {
   std::set<std::string> names;
   for (sv::FrameSet set : {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
-                           sv::FrameSet::kDistorted})
+                           sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard})
   {
     const std::string name = sv::toString(set);
     names.insert(name);
     EXPECT_EQ(sv::frameSetNamed(name), set) << name;
   }
-  EXPECT_EQ(names, (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted"}));
+  EXPECT_EQ(names, (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted", "approach_hard"}));
   EXPECT_FALSE(sv::frameSetNamed("Main").has_value());
   EXPECT_FALSE(sv::frameSetNamed("").has_value());
 }
@@ -742,6 +742,44 @@ TEST(LabelledSets, TheApproachRunsFrom110To51CmOfDepthAndEndsAligned)
   for (int i = 34; i < 40; ++i)  // inside 60 cm from frame 34 on (frame 33: 60.08 cm)
     EXPECT_TRUE(truth[i].aligned) << i;
   EXPECT_FALSE(truth[33].aligned);
+}
+
+TEST(LabelledSets, TheHardApproachTakesTheSamePathAndEndsAlignedOrJustOff)
+{
+  // Both sides of aligned: over 16 seeds some approaches end aligned and some end with the puller
+  // just touching (turned about a degree, or a few mm beside the axis), each with the plain
+  // approach's depths, through a webcam with the hard set's imaging and a driving smear.
+  const sv::SpoolRenderer renderer(sv::setCamera(sv::FrameSet::kApproachHard, {160, 120}));
+  int aligned_endings = 0;
+  int touching_endings = 0;
+  for (std::uint64_t seed = 1; seed <= 16; ++seed)
+  {
+    std::vector<sv::GroundTruth> truth;
+    sv::SceneParams last_scene;
+    for (int i = 0; i < 40; ++i)
+    {
+      sv::SceneParams scene;
+      sv::CameraPose pose;
+      sv::setFrame(sv::FrameSet::kApproachHard, seed, i, 40, scene, pose);
+      truth.push_back(renderer.groundTruth(scene, pose));
+      last_scene = scene;
+    }
+    EXPECT_NEAR(truth.back().distance, 0.51, 1e-9) << seed;
+    EXPECT_GT(last_scene.motion_blur, 0.0);
+    EXPECT_TRUE(last_scene.motion_blur_radial);
+    EXPECT_GT(last_scene.noise_sigma, 0.0);
+    const bool ends_aligned = truth.back().aligned;
+    for (int i = 34; i < 40; ++i)  // the whole insertion window ends one way
+    {
+      EXPECT_EQ(truth[i].aligned, ends_aligned) << seed << " " << i;
+      // Just off: the front of the bore is within reach, only the clearance is missed.
+      EXPECT_LT(truth[i].puller_miss, 0.005) << seed << " " << i;
+    }
+    aligned_endings += ends_aligned ? 1 : 0;
+    touching_endings += ends_aligned ? 0 : 1;
+  }
+  EXPECT_GE(aligned_endings, 4);
+  EXPECT_GE(touching_endings, 4);
 }
 
 TEST(LabelledSets, TheDistortedSetIsMainThroughAC270LensPlusNearAlignedPoses)

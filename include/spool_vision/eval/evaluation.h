@@ -32,6 +32,11 @@ enum class FrameSet
   /// end of an approach (48-62 cm of depth, the puller within a few mm and a degree of the bore
   /// axis: the puller clears the bore on about 60% of them)
   kDistorted,
+  /// approach's path through the hard set's webcam, faces (ribs, labels) and clutter, with a
+  /// radial smear from driving at 10-30 cm/s; half of the approaches end just off (the puller
+  /// turned 0.8-1.3 deg or 2.8-4 mm beside the bore's axis: it would touch), so both sides of
+  /// aligned are measured
+  kApproachHard,
 };
 
 /// The set's name, as spool_render's --set and the truth files' "set" write it ("main", ...).
