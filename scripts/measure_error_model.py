@@ -338,6 +338,8 @@ def measure(size, set_name, seed, pass_name, t, d):
     rec["vertical_mm"] = 1000.0 * (nan_if_none((d.get("position") or {}).get("y")) - t["position"]["y"])
     rec["axis_yaw_deg"] = math.degrees(nan_if_none(d["axis_yaw"]) - t["axis_yaw"])
     rec["axis_angle_deg"] = math.degrees(nan_if_none(d["axis_angle"]) - t["axis_angle"])
+    if rec["hole"]:
+        rec["hole_r_px"] = d["hole"]["r"] - t["hole"]["r"]  # the bore rim's radius: a depth cue of its own
     return rec
 
 

@@ -85,6 +85,9 @@ public:
   /// A window's flange rim reaches at most this many times its largest radius from the window's
   /// centres (a turned rim's ellipse, the rim fit's band), plus kWindowPad px.
   static constexpr double kWindowSlack = 1.08;
+  /// A flange in a window needs (1 - this) of its rim, as `sensitivity` does in the whole frame
+  /// (the larger of the two applies)
+  static constexpr double kWindowSensitivity = 0.75;
   static constexpr double kWindowPad = 6.0;
 
 private:

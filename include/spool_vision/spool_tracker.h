@@ -104,12 +104,12 @@ public:
   /// projected through `camera`'s pinhole (undistorted pixels). Centre margin: 3 sigma of the
   /// projected position plus the offset of a turned rim's ellipse centre from the projected
   /// centre, f (R/Z)^2 sin(max_view_angle); radius margin: 3 sigma of the depth plus
-  /// kRadiusSpread (a rib ring is 60-75% of the flange's size, a neighbour's rim elsewhere).
+  /// kRadiusSpread (a rib ring is 60-86% of the flange's size, a neighbour's rim elsewhere).
   /// nullopt without a track (searching, lost), or when the prediction is not ahead of the camera.
   std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera) const;
 
   /// Fraction of the predicted radius the flange window's radius margin adds.
-  static constexpr double kRadiusSpread = 0.1;
+  static constexpr double kRadiusSpread = 0.04;
 
   /// Drops the track (e.g. a new camera).
   void reset();

@@ -129,6 +129,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                                           hp.flange_radius_max, flange_max);
   if (window)
   {
+    // The window's prior (the centre within a few px, the radius within a few %) stands in for
+    // part of the rim's evidence: a flange cut by the border with a label or the puller rod over
+    // what is left shows a quarter of its rim.
+    flange_search.min_score = std::min(flange_search.min_score, 1.0 - kWindowSensitivity);
     flange_search.r_min = std::max(1.0, window->radius - window->radius_margin);
     flange_search.r_max = std::max(flange_search.r_min + 1.0, window->radius + window->radius_margin);
     flange_search.center_window =

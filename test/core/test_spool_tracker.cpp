@@ -228,6 +228,27 @@ TEST(SpoolTracker, ANeighbourTakenAtFirstSightGivesWayToTheWholeFramesTarget)
   }
 }
 
+TEST(SpoolTracker, ARibRingAlongTheTracksBoreNeverEndsTheTrack)
+{
+  // The outermost rib ring (86% of the flange) taken for the flange on 4 frames in a row, as well
+  // supported as the flange: each puts the bore 17% farther along the same bearing. It is this
+  // spool measured wrong, not another spool: the track coasts through it and goes on.
+  std::mt19937 rng(37);
+  SpoolTracker tracker;
+  feedApproach(tracker, 20, &rng);
+  for (int i = 20; i < 24; ++i)
+  {
+    const cv::Point3d ring = approach(i) * (1.0 / 0.86);
+    const TrackedSpool& t = tracker.update(detectionAt(ring, kAlong, &rng), stamp(i), kCamera);
+    EXPECT_EQ(t.state, TrackState::kCoasting) << i;
+    EXPECT_TRUE(t.rejected_now) << i;
+  }
+  const TrackedSpool& back = tracker.update(detectionAt(approach(24), kAlong, &rng), stamp(24), kCamera);
+  EXPECT_EQ(back.state, TrackState::kTracking);
+  EXPECT_EQ(back.age, 25);
+  EXPECT_NEAR(back.position.z, approach(24).z, 0.01 * approach(24).z);
+}
+
 TEST(SpoolTracker, AWeakerConsistentCandidateDoesNotEndTheTrack)
 {
   SpoolTracker tracker;
