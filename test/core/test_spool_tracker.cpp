@@ -249,6 +249,22 @@ TEST(SpoolTracker, ARibRingAlongTheTracksBoreNeverEndsTheTrack)
   EXPECT_NEAR(back.position.z, approach(24).z, 0.01 * approach(24).z);
 }
 
+TEST(SpoolTracker, AYoungTrackOnAWrongDetectionEndsAtOnce)
+{
+  // The first detection was 9% short (something else) and better supported than the spool's
+  // own detections that follow: a track with no history to defend ends at the first refusal
+  // instead of coasting on a prediction from one wrong frame.
+  SpoolTracker tracker;
+  tracker.update(detectionAt(approach(0) * 0.91, kAlong, nullptr, 0.95), stamp(0), kCamera);
+  EXPECT_EQ(tracker.update(detectionAt(approach(1), kAlong, nullptr, 0.8), stamp(1), kCamera).state, TrackState::kLost);
+  for (int i = 2; i < 6; ++i)
+  {
+    const TrackedSpool& t = tracker.update(detectionAt(approach(i), kAlong, nullptr, 0.8), stamp(i), kCamera);
+    EXPECT_EQ(t.state, TrackState::kTracking) << i;
+    EXPECT_NEAR(t.position.z, approach(i).z, 0.005) << i;
+  }
+}
+
 TEST(SpoolTracker, AWeakerConsistentCandidateDoesNotEndTheTrack)
 {
   SpoolTracker tracker;
