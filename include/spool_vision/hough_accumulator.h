@@ -66,6 +66,8 @@ public:
   void setUndistortion(const CameraIntrinsics& camera);
 
 private:
+  /// computeGradients() inside the raw frame's rectangle `inner` (within the frame) only.
+  void computeGradientsIn(const cv::Mat& gray8, const cv::Rect& inner);
   /// extract() in the raw frame's rectangle `raw` (within computed_).
   void extractRaw(double threshold, const cv::Rect& raw, std::size_t max_edges, std::vector<EdgePoint>& edges,
                   const LinearLight* linear);

@@ -71,7 +71,7 @@ private:
   std::vector<std::uint16_t> line_;
   std::vector<std::uint32_t> acc_;
   cv::Mat structuring_element_;
-  cv::Mat gray_, filtered_, binary_, morph_, blur_, blur_view_;
+  cv::Mat gray_, filtered_, binary_, morph_, blur_;
   cv::Mat labels_, stats_, centroids_;
 };
 

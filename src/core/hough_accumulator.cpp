@@ -295,46 +295,39 @@ bool RimMoments::fitEllipse(double& x, double& y, double& semi_x, double& semi_y
 
 void EdgeDetector::computeGradients(const cv::Mat& gray8)
 {
+  computeGradientsIn(gray8, cv::Rect(0, 0, gray8.cols, gray8.rows));
+}
+
+void EdgeDetector::computeGradientsIn(const cv::Mat& gray8, const cv::Rect& inner)
+{
   // cv::Sobel allocates its filter engine on every call; this path reuses its buffers.
   gx_.create(gray8.size(), CV_16S);
   gy_.create(gray8.size(), CV_16S);
   mag_.create(gray8.size(), CV_32S);
   column_sum_.resize(static_cast<std::size_t>(gray8.cols + 2));
   column_diff_.resize(static_cast<std::size_t>(gray8.cols + 2));
-  sobel(gray8, column_sum_.data(), column_diff_.data(), gx_, gy_, mag_);
-  computed_ = cv::Rect(0, 0, gray8.cols, gray8.rows);
-}
-
-void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges)
-{
-  computeGradients(gray8);
-  extract(threshold, cv::Rect(0, 0, gray8.cols, gray8.rows), max_edges, edges);
-}
-
-void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges,
-                          const cv::Rect& region)
-{
-  const cv::Rect frame(0, 0, gray8.cols, gray8.rows);
-  const cv::Rect inner = region & frame;
-  if (inner == frame)
-  {
-    detect(gray8, threshold, max_edges, edges);
-    return;
-  }
-  gx_.create(gray8.size(), CV_16S);
-  gy_.create(gray8.size(), CV_16S);
-  mag_.create(gray8.size(), CV_32S);
   // The suppression reads the magnitude 1 px around an edge, the Sobel 1 px around that: over a
   // rectangle 2 px wider, whose own border replicates, `inner` and 1 px around it come out as in
-  // the whole frame.
-  const cv::Rect padded = cv::Rect(inner.x - 2, inner.y - 2, inner.width + 4, inner.height + 4) & frame;
-  column_sum_.resize(static_cast<std::size_t>(gray8.cols + 2));
-  column_diff_.resize(static_cast<std::size_t>(gray8.cols + 2));
+  // the whole frame (whose border replicates the same way).
+  const cv::Rect padded =
+      cv::Rect(inner.x - 2, inner.y - 2, inner.width + 4, inner.height + 4) & cv::Rect(0, 0, gray8.cols, gray8.rows);
   cv::Mat gx = gx_(padded);
   cv::Mat gy = gy_(padded);
   cv::Mat mag = mag_(padded);
   sobel(gray8(padded), column_sum_.data(), column_diff_.data(), gx, gy, mag);
   computed_ = inner;
+}
+
+void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges)
+{
+  detect(gray8, threshold, max_edges, edges, cv::Rect(0, 0, gray8.cols, gray8.rows));
+}
+
+void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t max_edges, std::vector<EdgePoint>& edges,
+                          const cv::Rect& region)
+{
+  const cv::Rect inner = region & cv::Rect(0, 0, gray8.cols, gray8.rows);
+  computeGradientsIn(gray8, inner);
   extractRaw(threshold, inner, max_edges, edges, nullptr);
 }
 

@@ -73,6 +73,14 @@ SPOOL_VISION_PIXEL_LOOP void separableBlur(const cv::Mat& gray, const std::uint1
   }
 }
 
+// The top-left `size` of `buffer` (of `type`), which grows to hold it and never shrinks: a search
+// window's size changes every frame, and the per-frame path must not allocate.
+cv::Mat scratch(cv::Mat& buffer, cv::Size size, int type)
+{
+  if (buffer.type() != type || buffer.rows < size.height || buffer.cols < size.width)
+    buffer.create(std::max(buffer.rows, size.height), std::max(buffer.cols, size.width), type);
+  return buffer(cv::Rect(cv::Point(), size));
+}
 }  // namespace
 
 Preprocessor::Preprocessor(const PreprocessParams& params, double focal_length)
@@ -110,10 +118,7 @@ void Preprocessor::gaussian(const cv::Mat& gray, cv::Mat& out)
   // Written out so that the per-frame path reuses its buffers (cv::GaussianBlur allocates on every
   // call).
   const int radius = static_cast<int>(kernel_.size() / 2);
-  // A region's size changes every frame: the scratch only ever grows.
-  if (rows_.rows < gray.rows || rows_.cols < gray.cols)
-    rows_.create(std::max(rows_.rows, gray.rows), std::max(rows_.cols, gray.cols), CV_16U);
-  cv::Mat rows = rows_(cv::Rect(0, 0, gray.cols, gray.rows));
+  cv::Mat rows = scratch(rows_, gray.size(), CV_16U);
   line_.resize(static_cast<size_t>(gray.cols + 2 * radius));
   acc_.resize(static_cast<size_t>(gray.cols));
   out.create(gray.size(), CV_8U);
@@ -242,13 +247,13 @@ void Preprocessor::filter(const cv::Mat& gray, cv::Mat& out)
       cv::blur(gray, out, cv::Size(k, k), cv::Point(-1, -1), cv::BORDER_REPLICATE);
       break;
     case FilterType::kUnsharp:
+    {
       // out = gray + amount * (gray - blur(gray)), saturated to 8 bit.
-      if (blur_.rows < gray.rows || blur_.cols < gray.cols)
-        blur_.create(std::max(blur_.rows, gray.rows), std::max(blur_.cols, gray.cols), CV_8U);
-      blur_view_ = blur_(cv::Rect(0, 0, gray.cols, gray.rows));
-      gaussian(gray, blur_view_);
-      cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur_view_, -params_.unsharp_amount, 0.0, out);
+      cv::Mat blur = scratch(blur_, gray.size(), CV_8U);
+      gaussian(gray, blur);
+      cv::addWeighted(gray, 1.0 + params_.unsharp_amount, blur, -params_.unsharp_amount, 0.0, out);
       break;
+    }
     case FilterType::kNone:
       gray.copyTo(out);
       break;

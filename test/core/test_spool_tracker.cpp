@@ -336,6 +336,17 @@ double shareOfFrames(int runs, int frames, int skip, Detect&& detect, Holds&& ho
   return static_cast<double>(count) / total;
 }
 
+namespace
+{
+// The 3-sigma ellipsoid of the published position holds frame i's bore of approach().
+bool holdsTheApproachIn3Sigma(const TrackedSpool& t, int i)
+{
+  const cv::Point3d truth = approach(i);
+  const cv::Vec3d e(t.position.x - truth.x, t.position.y - truth.y, t.position.z - truth.z);
+  return (e.t() * t.position_covariance.inv() * e)(0) <= 3.0 * 3.0;
+}
+}  // namespace
+
 TEST(SpoolTracker, AlignedMostOfTheTimeWhenTrulyAlignedWithMeasuredNoise)
 {
   // 20 stands of 3 s at 55 cm, truly aligned, with the error model's noise: after the first
@@ -372,13 +383,7 @@ TEST(SpoolTracker, TheCovarianceIsHonest)
   // position holds the truth in at least 97% of the tracked frames.
   std::mt19937 rng(23);
   const double share = shareOfFrames(
-      40, 80, 0, [&](int i) { return detectionAt(approach(i), kAlong, &rng); },
-      [](const TrackedSpool& t, int i)
-      {
-        const cv::Point3d truth = approach(i);
-        const cv::Vec3d e(t.position.x - truth.x, t.position.y - truth.y, t.position.z - truth.z);
-        return (e.t() * t.position_covariance.inv() * e)(0) <= 3.0 * 3.0;
-      });
+      40, 80, 0, [&](int i) { return detectionAt(approach(i), kAlong, &rng); }, holdsTheApproachIn3Sigma);
   EXPECT_GE(share, 0.97);
 }
 
@@ -398,12 +403,7 @@ TEST(SpoolTracker, TheCovarianceHoldsAnErrorEveryFrameShares)
         d.distance = d.position.z;
         return d;
       },
-      [](const TrackedSpool& t, int i)
-      {
-        const cv::Point3d truth = approach(i);
-        const cv::Vec3d e(t.position.x - truth.x, t.position.y - truth.y, t.position.z - truth.z);
-        return (e.t() * t.position_covariance.inv() * e)(0) <= 3.0 * 3.0;
-      });
+      holdsTheApproachIn3Sigma);
   EXPECT_GE(share, 0.97);
 }
 
