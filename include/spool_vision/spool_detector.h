@@ -146,6 +146,9 @@ private:
   double boreContrast(const cv::Point2d& centre, double r) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
+  /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
+  /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
+  void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);
 
   /// Below this fraction of its rim in the frame a flange fit is often a neighbour's back flange
   /// or its joint silhouette with the front one, centred anywhere on that neighbour's face
@@ -178,6 +181,7 @@ private:
   std::vector<Circle> first_holes_;    ///< the first search's target's during the flange_retry search
   std::vector<Circle> first_flanges_;  ///< the first search's candidates during the flange_retry search
   std::vector<Circle> lenses_;
+  std::vector<float> lens_samples_;  ///< measureLens()'s scratch
   std::vector<std::size_t> order_;
 };
 

@@ -32,6 +32,18 @@ enum class TrackState : std::uint8_t
 /// "searching", "tracking", "coasting", "lost".
 const char* toString(TrackState state);
 
+/// Where the latest measurement fused into the tracked axis came from (kept while coasting). The values are the
+/// SpoolPose message's AXIS_CUE_* constants.
+enum class AxisCue : std::uint8_t
+{
+  kNone = 0,          ///< no axis: no hole rim yet, or no track
+  kRim = 1,           ///< the flange rim's ellipse alone (SpoolGeometry::fitRimPose)
+  kBoreParallax = 2,  ///< the bore's parallax (bore_parallax.h), with the rim's where it agreed
+};
+
+/// "none", "rim", "bore_parallax".
+const char* toString(AxisCue cue);
+
 /// 1-sigma measurement noise of one detection (the error model, docs/error_model.md).
 struct MeasurementNoise
 {
@@ -65,6 +77,7 @@ struct TrackedSpool
   cv::Matx33d position_covariance = cv::Matx33d::zeros();
   cv::Vec3d axis{kNaN, kNaN, kNaN};  ///< unit spool axis into the spool; NaN until a hole rim gave one
   double axis_sigma = kNaN;          ///< rad, 1 sigma of the axis's direction (the larger slope's)
+  AxisCue axis_cue = AxisCue::kNone;
   /// The puller's miss of the bore's axis at its front and at bore_length_max along it (m), and
   /// the 1-sigma of the larger of the two (first-order propagation of the state covariance)
   double front_miss = kNaN;
@@ -125,7 +138,13 @@ private:
   void predict(double dt);
   /// Fuses the detection's position unless the gate refuses it; true when fused.
   bool fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
+  /// The rim's axis, then the bore's parallax where it was measured (its covariance times
+  /// track_noise_scale^2). Each is gated against the track's axis; a rim refused twice in a row
+  /// (the robot turned faster than track_axis_drift allows) restarts the axis, unless the
+  /// parallax, which the rim's bias does not share, holds it.
   void fuseAxis(const SpoolDetection& detection, const MeasurementNoise& noise);
+  /// One axis measurement: true when fused, false when the gate refused it.
+  bool fuseSlopes(const Eigen::Vector2d& slopes, const Eigen::Matrix2d& covariance);
   /// Counts a refused detection; true when it and the one before agree with each other and are
   /// the stronger evidence (another spool, or the track was wrong): the track is lost.
   bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera,
@@ -148,11 +167,12 @@ private:
   Eigen::Vector2d axis_ = Eigen::Vector2d::Zero();  ///< the axis's slopes (x/z, y/z)
   Eigen::Matrix2d axis_p_ = Eigen::Matrix2d::Zero();
   bool axis_known_ = false;
-  int axis_refused_ = 0;     ///< axis measurements refused in a row
-  bool fine_enough_ = true;  ///< the camera's pixel subtends at most aligned_max_pixel_angle
-  int coasted_ = 0;          ///< frames in a row without a fused detection
-  int confirmed_ = 0;        ///< frames in a row whose filtered state cleared the bore
-  double support_ = 0.0;     ///< confidence of the last fused detection
+  AxisCue axis_cue_ = AxisCue::kNone;  ///< of the latest measurement fused into axis_
+  int axis_refused_ = 0;               ///< axis measurements refused in a row
+  bool fine_enough_ = true;            ///< the camera's pixel subtends at most aligned_max_pixel_angle
+  int coasted_ = 0;                    ///< frames in a row without a fused detection
+  int confirmed_ = 0;                  ///< frames in a row whose filtered state cleared the bore
+  double support_ = 0.0;               ///< confidence of the last fused detection
   /// Refused detections that agree with each other: how many, the last one's offset from the
   /// track (m) and its covariance
   struct Refuter

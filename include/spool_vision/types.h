@@ -168,6 +168,14 @@ struct SpoolDetection
   /// of the ~20 cm bore (thesis Fig. 3.3: the two rims share a centre only on the axis).
   bool lens_detected = false;
   Circle lens;
+  /// The spool axis from the bore's parallax (bore_parallax.h), when the lit lens shows inside
+  /// the hole rim and agrees with the two openings' model: the lens's centroid (px), the axis's
+  /// slopes (x/z, y/z, camera optical frame) and their covariance (rad^2). The per-frame `axis`
+  /// stays the rim's; SpoolTracker fuses both.
+  bool parallax_measured = false;
+  cv::Point2d lens_centroid{kNaN, kNaN};
+  cv::Vec2d parallax_slopes{kNaN, kNaN};
+  cv::Matx22d parallax_covariance = cv::Matx22d::zeros();
   cv::Point2d reference;  ///< px, where the puller axis appears
   double time_ms = 0.0;   ///< detector processing time for this frame
 };

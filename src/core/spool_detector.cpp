@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "spool_vision/bore_parallax.h"
 #include "spool_vision/camera_model.h"
 
 namespace spool_vision
@@ -155,6 +156,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
   gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
   geometry.measure(result, rim_);
+  measureBoreParallax(geometry, result);
   toFramePixels(geometry.camera(), result);
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
@@ -242,6 +244,8 @@ void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection
     move(result.hole.x, result.hole.y);
   if (result.lens_detected)
     move(result.lens.x, result.lens.y);
+  if (result.parallax_measured)
+    move(result.lens_centroid.x, result.lens_centroid.y);
 }
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
@@ -412,6 +416,25 @@ void SpoolDetector::findLens(SpoolDetection& result)
       result.lens = lens;
       return;
     }
+}
+
+void SpoolDetector::measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result)
+{
+  // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
+  if (!result.hole_detected || params_.hough.hole_polarity == Polarity::kBright || !(result.position.z > 0.0))
+    return;
+  const std::optional<LensView> lens = measureLens(preprocessor_.gray(), preprocessor_.linearLight(), geometry.camera(),
+                                                   {result.hole.x, result.hole.y}, result.hole.r, lens_samples_);
+  if (!lens)
+    return;
+  const std::optional<ParallaxAxis> axis = axisFromBoreParallax(
+      params_.geometry, geometry.camera(), {result.hole.x, result.hole.y}, result.position.z, *lens);
+  if (!axis)
+    return;
+  result.parallax_measured = true;
+  result.lens_centroid = lens->centroid;
+  result.parallax_slopes = axis->slopes;
+  result.parallax_covariance = axis->covariance;
 }
 
 namespace

@@ -142,6 +142,21 @@ void setUp(const Options& options, spool_vision::DetectorParams& params,
   }
 }
 
+// The axis from the bore's parallax: where the lens's centroid lies (px), the yaw of the axis it
+// gives (rad, atan of the slope x/z) and its 1-sigma. Its pitch is not printed: the tracker
+// leaves it to the rim (biased 0.2-0.3 deg on rendered approaches).
+std::string boreParallaxJson(const spool_vision::SpoolDetection& d)
+{
+  if (!d.parallax_measured)
+    return "null";
+  return JsonObject()
+      .add("lens_x", d.lens_centroid.x, 2)
+      .add("lens_y", d.lens_centroid.y, 2)
+      .add("yaw", std::atan(d.parallax_slopes[0]), 5)
+      .add("yaw_sigma", std::sqrt(d.parallax_covariance(0, 0)), 5)
+      .str();
+}
+
 // One detection's fields, after "image".
 void addDetection(const spool_vision::ImageFile& file, const spool_vision::SpoolDetection& d, JsonObject& out)
 {
@@ -167,6 +182,7 @@ void addDetection(const spool_vision::ImageFile& file, const spool_vision::Spool
       .addRaw("flange", circleJson(d.detected, d.flange))
       .addRaw("hole", circleJson(d.hole_detected, d.hole))
       .addRaw("lens", circleJson(d.lens_detected, d.lens))
+      .addRaw("bore_parallax", boreParallaxJson(d))
       .add("confidence", d.confidence, 3)
       .addRaw("reference", JsonObject().add("x", d.reference.x, 2).add("y", d.reference.y, 2).str())
       .add("time_ms", d.time_ms, 3);
@@ -185,6 +201,7 @@ void addTrack(const spool_vision::TrackedFrame& frame, JsonObject& out)
   else
     out.addRaw("position_covariance", "null");
   out.add("axis_sigma", t.axis_sigma, 5)
+      .add("axis_cue", spool_vision::toString(t.axis_cue))
       .add("front_miss", t.front_miss, 5)
       .add("back_miss", t.back_miss, 5)
       .add("miss_sigma", t.miss_sigma, 5)

@@ -439,3 +439,30 @@ TEST(SpoolTracker, NeverAlignedFromACoarserImageThanThePerFrameRuleAllows)
   for (int i = 0; i < 60; ++i)
     EXPECT_FALSE(tracker.update(detectionAt({0.0, 0.06, 0.55}, kAlong, nullptr), stamp(i), qvga).aligned) << i;
 }
+
+TEST(SpoolTracker, TheBoresParallaxHoldsTheYawTheRimGetsWrong)
+{
+  // Every frame's rim says the axis is turned 0.6 degrees (a label near the cut rim); the bore's
+  // parallax says 0 with 0.05 degrees of noise. Fused, the tracked yaw follows the parallax and
+  // the cue says so; from the rim alone it stays off.
+  std::mt19937 rng(31);
+  const cv::Vec3d rim_axis = cv::normalize(cv::Vec3d(std::tan(0.6 * M_PI / 180.0), 0.0, 1.0));
+  const double parallax_sigma = 0.05 * M_PI / 180.0;
+  SpoolTracker with;
+  SpoolTracker without;
+  for (int i = 0; i < 60; ++i)
+  {
+    SpoolDetection d = detectionAt({0.0, 0.06, 0.55}, rim_axis, nullptr);
+    without.update(d, stamp(i), kCamera);
+    d.parallax_measured = true;
+    d.parallax_slopes = {parallax_sigma * gaussian(rng), 0.3};  // its pitch is left to the rim
+    d.parallax_covariance = cv::Matx22d(parallax_sigma * parallax_sigma, 0.0, 0.0, 1e-6);
+    with.update(d, stamp(i), kCamera);
+  }
+  const TrackedSpool& t = with.current();
+  EXPECT_EQ(t.axis_cue, spool_vision::AxisCue::kBoreParallax);
+  EXPECT_NEAR(std::atan2(t.axis[0], t.axis[2]) * 180.0 / M_PI, 0.0, 0.1);
+  EXPECT_NEAR(std::atan2(t.axis[1], t.axis[2]) * 180.0 / M_PI, 0.0, 0.05);  // the rim's pitch, not 0.3
+  EXPECT_EQ(without.current().axis_cue, spool_vision::AxisCue::kRim);
+  EXPECT_GT(std::atan2(without.current().axis[0], without.current().axis[2]) * 180.0 / M_PI, 0.4);
+}
