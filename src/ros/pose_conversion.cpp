@@ -54,6 +54,11 @@ SpoolPose toSpoolPose(const SpoolDetection& detection, const std_msgs::Header& h
   return pose;
 }
 
+static_assert(static_cast<std::uint8_t>(AxisCue::kNone) == SpoolPose::AXIS_CUE_NONE &&
+                  static_cast<std::uint8_t>(AxisCue::kRim) == SpoolPose::AXIS_CUE_RIM &&
+                  static_cast<std::uint8_t>(AxisCue::kBoreParallax) == SpoolPose::AXIS_CUE_BORE_PARALLAX,
+              "AxisCue's values are the message's AXIS_CUE_* constants");
+
 void setTrackFields(SpoolPose& pose, const TrackedFrame* frame)
 {
   if (!frame)
@@ -63,6 +68,8 @@ void setTrackFields(SpoolPose& pose, const TrackedFrame* frame)
     pose.track_rejected = 0;
     pose.raw_distance = pose.distance;
     pose.position_covariance.fill(kNaN);
+    pose.axis_cue = static_cast<std::uint8_t>(std::isfinite(pose.axis.z) ? AxisCue::kRim : AxisCue::kNone);
+    pose.axis_sigma = kNaN;
     return;
   }
   const TrackedSpool& t = frame->track;
@@ -72,6 +79,9 @@ void setTrackFields(SpoolPose& pose, const TrackedFrame* frame)
   pose.raw_distance = frame->raw.detected ? frame->raw.distance : kNaN;
   for (int i = 0; i < 9; ++i)
     pose.position_covariance[i] = frame->published.detected ? t.position_covariance(i / 3, i % 3) : kNaN;
+  const bool axis = frame->published.detected && std::isfinite(t.axis_sigma);
+  pose.axis_cue = static_cast<std::uint8_t>(axis ? t.axis_cue : AxisCue::kNone);
+  pose.axis_sigma = axis ? t.axis_sigma : kNaN;
 }
 
 std::optional<geometry_msgs::PoseWithCovarianceStamped> poseWithCovariance(const TrackedFrame& frame,

@@ -7,6 +7,7 @@ true exactly where the ground truth says so, which is only in the final frames. 
 touch and on at least 80% of the frames where it would pass."""
 import glob
 import json
+import math
 import os
 import sys
 import time
@@ -98,6 +99,8 @@ class ApproachReplayTest(unittest.TestCase):
         if not self.track:
             self.assertTrue(all(p.track_state == SpoolPose.TRACK_OFF and p.track_age == 0 for p in poses))
             self.assertFalse(self.with_covariance, "~pose_with_covariance without track")
+            # The per-frame axis is the rim's, without a sigma.
+            self.assertTrue(all(p.axis_cue == SpoolPose.AXIS_CUE_RIM and math.isnan(p.axis_sigma) for p in poses))
             return
         # One track from the first frame to the last: every frame fused, none refused.
         self.assertEqual([p.track_state for p in poses], [SpoolPose.TRACK_TRACKING] * len(poses))
@@ -111,6 +114,10 @@ class ApproachReplayTest(unittest.TestCase):
             self.assertAlmostEqual(with_covariance.pose.pose.position.z, p.distance, places=6)
             self.assertAlmostEqual(with_covariance.pose.covariance[14], p.position_covariance[8], places=12)
             self.assertGreaterEqual(with_covariance.pose.covariance[35], 1e6)
+            # Every frame has a hole rim: an axis with its cue and a sigma the orientation carries.
+            self.assertIn(p.axis_cue, (SpoolPose.AXIS_CUE_RIM, SpoolPose.AXIS_CUE_BORE_PARALLAX), "frame %d" % i)
+            self.assertGreater(p.axis_sigma, 0.0, "frame %d" % i)
+            self.assertAlmostEqual(with_covariance.pose.covariance[21], p.axis_sigma ** 2, places=12)
 
 
 if __name__ == "__main__":
