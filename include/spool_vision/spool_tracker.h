@@ -138,6 +138,15 @@ private:
   void predict(double dt);
   /// Fuses the detection's position unless the gate refuses it; true when fused.
   bool fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
+  /// One position measurement (camera frame, m) with its covariance (m^2), gated; true when fused.
+  bool fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
+  /// The detection is this spool's own rib ring taken for the flange: its bore inside the track's
+  /// bore opening and its flange kRibRingMin to kRibRingMax of the predicted one.
+  bool isRibRing(const SpoolDetection& detection) const;
+  /// Counts a rib ring as refused and follows it: its first sighting in an episode learns the
+  /// ring's size relative to the flange (rib_ratio_), later ones are fused at that scale (the
+  /// bore's bearing and the ring's depth). True when fused.
+  bool followRibRing(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   /// The rim's axis, then the bore's parallax where it was measured (its covariance times
   /// track_noise_scale^2). Each is gated against the track's axis; a rim refused twice in a row
   /// (the robot turned faster than track_axis_drift allows) restarts the axis, unless the
@@ -170,9 +179,13 @@ private:
   AxisCue axis_cue_ = AxisCue::kNone;  ///< of the latest measurement fused into axis_
   int axis_refused_ = 0;               ///< axis measurements refused in a row
   bool fine_enough_ = true;            ///< the camera's pixel subtends at most aligned_max_pixel_angle
-  int coasted_ = 0;                    ///< frames in a row without a fused detection
-  int confirmed_ = 0;                  ///< frames in a row whose filtered state cleared the bore
-  double support_ = 0.0;               ///< confidence of the last fused detection
+  int coasted_ = 0;                    ///< frames in a row without a fused detection (a followed rib ring is neither)
+  /// The depth of the bore over that of the rib ring taken for the flange (the ring's size relative
+  /// to the flange's) and its variance: learnt at a rib episode's first frame, cleared by a fused flange
+  std::optional<double> rib_ratio_;
+  double rib_ratio_var_ = 0.0;
+  int confirmed_ = 0;     ///< frames in a row whose filtered state cleared the bore
+  double support_ = 0.0;  ///< confidence of the last fused detection
   /// Refused detections that agree with each other: how many, the last one's offset from the
   /// track (m) and its covariance
   struct Refuter

@@ -43,20 +43,27 @@ struct Inputs
   double length;      // the bore, m
 };
 
-// The back opening's image centre that puts the lens's centroid at `in.lens`, then the axis's slopes.
-std::optional<cv::Vec2d> solve(const Inputs& in, const GeometryParams& geometry, const CameraIntrinsics& camera,
-                               double depth, const LensView& view, double& model_area)
+struct Solution
+{
+  cv::Vec2d slopes;   // the axis's x/z and y/z
+  cv::Point2d back;   // the back opening's image centre, px
+  double area = 0.0;  // the model's lit area there, px^2
+};
+
+// The back opening's image centre that puts the lens's centroid at `in.lens` (Newton from
+// `start`, or from where an axis along the optical axis puts it), then the axis's slopes.
+std::optional<Solution> solve(const Inputs& in, const GeometryParams& geometry, const CameraIntrinsics& camera,
+                              double depth, const LensView& view, const std::optional<cv::Point2d>& start)
 {
   const double bore_radius = 0.5 * geometry.hole_diameter;
   const double back_radius = camera.fy * bore_radius / (depth + in.length);
   // The lens seen is the measured disc's overlap with the back opening (the disc lies inside the front one).
   auto centroid = [&](const cv::Point2d& back)
   { return discOverlap(view.region_centre, view.region_radius, back, back_radius); };
-  // Start on the optical axis's direction: the back centre where an axis along z puts it.
   const double x_f = (in.front.x - camera.cx) / camera.fx * depth;
   const double y_f = (in.front.y - camera.cy) / camera.fy * depth;
-  cv::Point2d back(camera.cx + camera.fx * x_f / (depth + in.length),
-                   camera.cy + camera.fy * y_f / (depth + in.length));
+  cv::Point2d back = start.value_or(cv::Point2d(camera.cx + camera.fx * x_f / (depth + in.length),
+                                                camera.cy + camera.fy * y_f / (depth + in.length)));
   constexpr double kStep = 0.02;  // px, for the numerical Jacobian
   constexpr int kIterations = 30;
   bool converged = false;
@@ -82,7 +89,6 @@ std::optional<cv::Vec2d> solve(const Inputs& in, const GeometryParams& geometry,
   }
   if (!converged)
     return std::nullopt;
-  model_area = centroid(back).area;
   // The back centre P_f + L a with a = (sx, sy, 1) / n: (u_b - cx) / fx (z_f + L / n) = x_f + L sx / n.
   cv::Vec2d slopes(0.0, 0.0);
   for (int i = 0; i < 3; ++i)
@@ -91,7 +97,7 @@ std::optional<cv::Vec2d> solve(const Inputs& in, const GeometryParams& geometry,
     slopes = {((back.x - camera.cx) / camera.fx * (depth * n + in.length) - x_f * n) / in.length,
               ((back.y - camera.cy) / camera.fy * (depth * n + in.length) - y_f * n) / in.length};
   }
-  return slopes;
+  return Solution{slopes, back, centroid(back).area};
 }
 }  // namespace
 
@@ -203,9 +209,8 @@ std::optional<ParallaxAxis> axisFromBoreParallax(const GeometryParams& geometry,
   if (!(depth > 0.0) || !(geometry.hub_length > 0.0) || !(lens.area > 0.0))
     return std::nullopt;
   const Inputs nominal{lens.centroid, front_centre, geometry.hub_length};
-  double model_area = 0.0;
-  const std::optional<cv::Vec2d> slopes = solve(nominal, geometry, camera, depth, lens, model_area);
-  if (!slopes || std::abs(lens.area - model_area) > model_area / 3.0)
+  const std::optional<Solution> solution = solve(nominal, geometry, camera, depth, lens, std::nullopt);
+  if (!solution || std::abs(lens.area - solution->area) > solution->area / 3.0)
     return std::nullopt;
   // First-order propagation: one column of the Jacobian per input, by central differences.
   const double sigmas[5] = {kLensCentroidSigmaPx, kLensCentroidSigmaPx, kFrontCentreSigmaPx, kFrontCentreSigmaPx,
@@ -220,15 +225,15 @@ std::optional<ParallaxAxis> axisFromBoreParallax(const GeometryParams& geometry,
     double* m[] = {&minus.lens.x, &minus.lens.y, &minus.front.x, &minus.front.y, &minus.length};
     *p[k] += h;
     *m[k] -= h;
-    double ignored = 0.0;
-    const std::optional<cv::Vec2d> up = solve(plus, geometry, camera, depth, lens, ignored);
-    const std::optional<cv::Vec2d> down = solve(minus, geometry, camera, depth, lens, ignored);
+    // From the nominal solution: a few Newton steps each.
+    const std::optional<Solution> up = solve(plus, geometry, camera, depth, lens, solution->back);
+    const std::optional<Solution> down = solve(minus, geometry, camera, depth, lens, solution->back);
     if (!up || !down)
       return std::nullopt;
-    const cv::Vec2d column = (*up - *down) * (sigmas[k] / (2.0 * h));
+    const cv::Vec2d column = (up->slopes - down->slopes) * (sigmas[k] / (2.0 * h));
     covariance += column * column.t();
   }
-  return ParallaxAxis{*slopes, covariance};
+  return ParallaxAxis{solution->slopes, covariance};
 }
 
 }  // namespace spool_vision

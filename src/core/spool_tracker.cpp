@@ -188,6 +188,7 @@ void SpoolTracker::reset()
 {
   active_ = false;
   axis_known_ = false;
+  rib_ratio_.reset();
   last_stamp_.reset();
   coasted_ = confirmed_ = consecutive_.count = whole_frame_.count = 0;
   tracked_ = TrackedSpool();
@@ -227,11 +228,17 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
 
   predict(dt);
   bool fused = false;
-  if (usable(detection))
+  bool followed_rib = false;
+  if (usable(detection) && isRibRing(detection))
+  {
+    followed_rib = followRibRing(detection, noise, camera);
+  }
+  else if (usable(detection))
   {
     fused = fusePosition(detection, noise, camera);
     if (fused)
     {
+      rib_ratio_.reset();  // the next rib episode learns its ring's size afresh
       bias_ = correlatedCovariance(detection, noise, camera, params_.tracker);
       fuseAxis(detection, noise);
       support_ = detection.confidence;
@@ -247,7 +254,8 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
       return tracked_;
     }
   }
-  coasted_ = fused ? 0 : coasted_ + 1;
+  // A frame that followed the rib ring neither counts as coasted nor clears the count.
+  coasted_ = fused ? 0 : coasted_ + (followed_rib ? 0 : 1);
   if (coasted_ > params_.tracker.max_coast)
   {
     tracked_.state = TrackState::kLost;
@@ -268,6 +276,7 @@ void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise
   p_.topLeftCorner<3, 3>() = positionCovariance(detection, noise, camera);
   p_.bottomRightCorner<3, 3>() = kInitialSpeedSigma * kInitialSpeedSigma * Eigen::Matrix3d::Identity();
   bias_ = correlatedCovariance(detection, noise, camera, params_.tracker);
+  rib_ratio_.reset();
   axis_known_ = false;
   fuseAxis(detection, noise);
   support_ = detection.confidence;
@@ -296,8 +305,13 @@ void SpoolTracker::predict(double dt)
 bool SpoolTracker::fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise,
                                 const CameraIntrinsics& camera)
 {
-  const Eigen::Vector3d innovation = toEigen(detection.position) - x_.head<3>();
-  const Eigen::Matrix3d s = p_.topLeftCorner<3, 3>() + positionCovariance(detection, noise, camera);
+  return fuseMeasurement(toEigen(detection.position), positionCovariance(detection, noise, camera));
+}
+
+bool SpoolTracker::fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance)
+{
+  const Eigen::Vector3d innovation = position - x_.head<3>();
+  const Eigen::Matrix3d s = p_.topLeftCorner<3, 3>() + covariance;
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(s);
   const double distance2 = innovation.dot(ldlt.solve(innovation));
   if (!(distance2 <= params_.tracker.gate * params_.tracker.gate))
@@ -308,7 +322,56 @@ bool SpoolTracker::fusePosition(const SpoolDetection& detection, const Measureme
   Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
   h.leftCols<3>().setIdentity();
   const Matrix6 i_kh = Matrix6::Identity() - k * h;
-  p_ = i_kh * p_ * i_kh.transpose() + k * (s - p_.topLeftCorner<3, 3>()) * k.transpose();
+  p_ = i_kh * p_ * i_kh.transpose() + k * covariance * k.transpose();
+  return true;
+}
+
+bool SpoolTracker::isRibRing(const SpoolDetection& detection) const
+{
+  // Its bore centre inside the track's bore opening (another spool's lies a flange or more away)
+  // and its flange kRibRingMin to kRibRingMax of the one the track predicts (depth / its depth):
+  // this spool's rib ring taken for the flange (its bore centre found a little off: 0.018 rad in
+  // heldout_v2's seq2_36). However well it fits the gate (a track that coasted a few frames
+  // admits 15%), it is never the flange. (Any other ratio may be the flange itself against a
+  // track that started on something else.)
+  const Eigen::Vector3d p = x_.head<3>();
+  const Eigen::Vector3d q = toEigen(detection.position);
+  const Eigen::Vector2d bearing(q.x() / q.z() - p.x() / p.z(), q.y() / q.z() - p.y() / p.z());
+  const double ring = p.z() / q.z();
+  return ring >= kRibRingMin && ring <= kRibRingMax && bearing.norm() <= 0.5 * params_.geometry.hole_diameter / p.z();
+}
+
+bool SpoolTracker::followRibRing(const SpoolDetection& detection, const MeasurementNoise& noise,
+                                 const CameraIntrinsics& camera)
+{
+  ++tracked_.rejected;
+  tracked_.rejected_now = true;
+  // The ring's size is a fixed fraction of the flange's: learnt from the track at its first
+  // sighting, it turns the ring's depth into the bore's, so the track follows the spool (the
+  // robot may stop at the insertion window) instead of coasting on its last velocity.
+  const Eigen::Vector3d p = x_.head<3>();
+  const Eigen::Vector3d q = toEigen(detection.position);
+  const double r_px = detection.flange.r_vertical > 0.0 ? detection.flange.r_vertical : detection.flange.r;
+  const double ring_var = std::pow(noise.radius_px / std::max(r_px, 1.0), 2.0);  // relative, of the ring's depth
+  if (!rib_ratio_)
+  {
+    rib_ratio_ = p.z() / q.z();
+    rib_ratio_var_ = *rib_ratio_ * *rib_ratio_ * (p_(2, 2) / (p.z() * p.z()) + ring_var);
+    return false;
+  }
+  // Along the ray through its bore centre, at the ratio's depth; the ratio's error is shared by
+  // every frame of the episode: a bias of the track.
+  const Eigen::Vector3d position = *rib_ratio_ * q;
+  const double z = position.z();
+  const Eigen::Vector3d ray = position / z;
+  const double sigma_z = z * std::sqrt(ring_var + rib_ratio_var_ / (*rib_ratio_ * *rib_ratio_));
+  const double sigma_across = z * noise.centre_px / std::max(std::min(camera.fx, camera.fy), 1.0);
+  Eigen::Matrix3d covariance = sigma_z * sigma_z * ray * ray.transpose();
+  covariance(0, 0) += sigma_across * sigma_across;
+  covariance(1, 1) += sigma_across * sigma_across;
+  if (!fuseMeasurement(position, covariance))
+    return false;  // another rib of the face (60-86% of the flange): the ratio is not its
+  bias_ = covariance;
   return true;
 }
 
@@ -382,18 +445,8 @@ bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const Measuremen
 {
   ++tracked_.rejected;
   tracked_.rejected_now = true;
-  // Its bore centre inside the track's bore opening (another spool's lies a flange or more away)
-  // and its flange kRibRingMin to kRibRingMax of the one the track predicts (depth / its depth):
-  // the refused detection is this spool's rib ring taken for the flange (its bore centre found a
-  // little off: 0.018 rad in heldout_v2's seq2_36), whatever its support it says nothing against
-  // the track. (Any other ratio may be the flange itself against a track that started on
-  // something else: those count.)
   const Eigen::Vector3d p = x_.head<3>();
   const Eigen::Vector3d q = toEigen(detection.position);
-  const Eigen::Vector2d bearing(q.x() / q.z() - p.x() / p.z(), q.y() / q.z() - p.y() / p.z());
-  const double ring = p.z() / q.z();
-  if (ring >= kRibRingMin && ring <= kRibRingMax && bearing.norm() <= 0.5 * params_.geometry.hole_diameter / p.z())
-    return false;
   // Relative to the track: the camera's motion moves both alike (the spools stand still).
   const Eigen::Vector3d offset = q - p;
   const Eigen::Matrix3d cov = positionCovariance(detection, noise, camera);

@@ -466,3 +466,36 @@ TEST(SpoolTracker, TheBoresParallaxHoldsTheYawTheRimGetsWrong)
   EXPECT_EQ(without.current().axis_cue, spool_vision::AxisCue::kRim);
   EXPECT_GT(std::atan2(without.current().axis[0], without.current().axis[2]) * 180.0 / M_PI, 0.4);
 }
+
+TEST(SpoolTracker, ARibRingHeldForASecondWhileTheRobotWaitsKeepsTheDepth)
+{
+  // The robot drives in and stops at 55 cm to wait for `aligned`; a few frames with nothing at
+  // all (the gate then admits 15%), then for a whole second every detection is the outermost rib
+  // ring (86% of the flange, its depth 16% too far). The ring is never fused as the flange; its
+  // size relative to the flange, learnt at its first frame, keeps the depth on the spool, within
+  // the published 3 sigma, never aligned, never lost; the robot moving again is followed.
+  std::mt19937 rng(41);
+  SpoolTracker tracker;
+  const int stop = 82;
+  feedApproach(tracker, stop, &rng);  // 1.1 m to 55 cm
+  const cv::Point3d stopped = approach(stop);
+  int i = stop;
+  for (; i < stop + 10; ++i)
+    tracker.update(detectionAt(stopped, kAlong, &rng), stamp(i), kCamera);
+  for (; i < stop + 13; ++i)
+    EXPECT_EQ(tracker.update(nothing(), stamp(i), kCamera).state, TrackState::kCoasting);
+  // Waiting, then backing off at 10 cm/s.
+  auto bore = [&](int frame) { return stopped + cv::Point3d(0.0, 0.0, 0.1 * std::max(0, frame - (stop + 33)) / kRate); };
+  for (; i < stop + 53; ++i)
+  {
+    const TrackedSpool& t = tracker.update(detectionAt(bore(i) * (1.0 / 0.86), kAlong, &rng), stamp(i), kCamera);
+    EXPECT_EQ(t.state, TrackState::kCoasting) << i;
+    EXPECT_TRUE(t.rejected_now) << i;
+    EXPECT_FALSE(t.aligned) << i;
+    EXPECT_NEAR(t.position.z, bore(i).z, 0.01 * bore(i).z) << i;
+    EXPECT_LE(std::abs(t.position.z - bore(i).z), 3.0 * std::sqrt(t.position_covariance(2, 2))) << i;
+  }
+  const TrackedSpool& back = tracker.update(detectionAt(bore(i), kAlong, &rng), stamp(i), kCamera);
+  EXPECT_EQ(back.state, TrackState::kTracking);
+  EXPECT_NEAR(back.position.z, bore(i).z, 0.01 * bore(i).z);
+}
