@@ -141,11 +141,13 @@ private:
   /// One position measurement (camera frame, m) with its covariance (m^2), gated; true when fused.
   bool fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
   /// The detection is this spool's own rib ring taken for the flange: its bore inside the track's
-  /// bore opening and its flange kRibRingMin to kRibRingMax of the predicted one.
+  /// bore opening and its flange kRibRingMin to kRibRingMax of the predicted one; never against a
+  /// track with fewer than track_confirm_frames fused frames that has coasted since its last.
   bool isRibRing(const SpoolDetection& detection) const;
   /// Counts a rib ring as refused and follows it: its first sighting in an episode learns the
   /// ring's size relative to the flange (rib_ratio_), later ones are fused at that scale (the
-  /// bore's bearing and the ring's depth). True when fused.
+  /// bore's bearing and the ring's depth). True when it learnt the ratio or fused the ring, false
+  /// when the gate refused it (another rib of the face).
   bool followRibRing(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   /// The rim's axis, then the bore's parallax where it was measured (its covariance times
   /// track_noise_scale^2). Each is gated against the track's axis; a rim refused twice in a row
@@ -185,6 +187,7 @@ private:
   std::optional<double> rib_ratio_;
   double rib_ratio_var_ = 0.0;
   int confirmed_ = 0;     ///< frames in a row whose filtered state cleared the bore
+  int fused_frames_ = 0;  ///< detections fused since the track started (its first among them)
   double support_ = 0.0;  ///< confidence of the last fused detection
   /// Refused detections that agree with each other: how many, the last one's offset from the
   /// track (m) and its covariance

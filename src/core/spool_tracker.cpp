@@ -239,6 +239,7 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
     if (fused)
     {
       rib_ratio_.reset();  // the next rib episode learns its ring's size afresh
+      ++fused_frames_;
       bias_ = correlatedCovariance(detection, noise, camera, params_.tracker);
       fuseAxis(detection, noise);
       support_ = detection.confidence;
@@ -281,6 +282,7 @@ void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise
   fuseAxis(detection, noise);
   support_ = detection.confidence;
   coasted_ = confirmed_ = consecutive_.count = whole_frame_.count = 0;
+  fused_frames_ = 1;
   tracked_ = TrackedSpool();
   tracked_.age = 0;
 }
@@ -334,6 +336,10 @@ bool SpoolTracker::isRibRing(const SpoolDetection& detection) const
   // heldout_v2's seq2_36). However well it fits the gate (a track that coasted a few frames
   // admits 15%), it is never the flange. (Any other ratio may be the flange itself against a
   // track that started on something else.)
+  // Not against a young track that has coasted: its prediction may have run away (a wrong second
+  // frame gives it a metre a second), making the flange itself look like a ring inside it.
+  if (fused_frames_ < params_.tracker.confirm_frames && coasted_ > 0)
+    return false;
   const Eigen::Vector3d p = x_.head<3>();
   const Eigen::Vector3d q = toEigen(detection.position);
   const Eigen::Vector2d bearing(q.x() / q.z() - p.x() / p.z(), q.y() / q.z() - p.y() / p.z());
@@ -357,7 +363,7 @@ bool SpoolTracker::followRibRing(const SpoolDetection& detection, const Measurem
   {
     rib_ratio_ = p.z() / q.z();
     rib_ratio_var_ = *rib_ratio_ * *rib_ratio_ * (p_(2, 2) / (p.z() * p.z()) + ring_var);
-    return false;
+    return true;
   }
   // Along the ray through its bore centre, at the ratio's depth; the ratio's error is shared by
   // every frame of the episode: a bias of the track.
@@ -471,10 +477,11 @@ bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const Measuremen
   const bool consistent = count(consecutive_);
   const bool consistent_whole = whole_frame && count(whole_frame_);
   // The stronger evidence: a hole rim at least as well supported as the track's last fused one.
-  // A track younger than track_confirm_frames has no history to hold against any other refusal
-  // (two frames, one of them wrong, give it a velocity of a metre a second): it ends at once.
+  // A track with fewer than track_confirm_frames fused frames has no history to hold against any
+  // other refusal (two frames, one of them wrong, give it a velocity of a metre a second, and
+  // coasting on it runs away from the spool): it ends at once.
   return ((consistent || consistent_whole) && detection.hole_detected && detection.confidence >= support_) ||
-         tracked_.age < params_.tracker.confirm_frames;
+         fused_frames_ < params_.tracker.confirm_frames;
 }
 
 void SpoolTracker::publish(bool fused)

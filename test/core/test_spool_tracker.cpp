@@ -485,7 +485,8 @@ TEST(SpoolTracker, ARibRingHeldForASecondWhileTheRobotWaitsKeepsTheDepth)
   for (; i < stop + 13; ++i)
     EXPECT_EQ(tracker.update(nothing(), stamp(i), kCamera).state, TrackState::kCoasting);
   // Waiting, then backing off at 10 cm/s.
-  auto bore = [&](int frame) { return stopped + cv::Point3d(0.0, 0.0, 0.1 * std::max(0, frame - (stop + 33)) / kRate); };
+  auto bore = [&](int frame)
+  { return stopped + cv::Point3d(0.0, 0.0, 0.1 * std::max(0, frame - (stop + 33)) / kRate); };
   for (; i < stop + 53; ++i)
   {
     const TrackedSpool& t = tracker.update(detectionAt(bore(i) * (1.0 / 0.86), kAlong, &rng), stamp(i), kCamera);
@@ -498,4 +499,22 @@ TEST(SpoolTracker, ARibRingHeldForASecondWhileTheRobotWaitsKeepsTheDepth)
   const TrackedSpool& back = tracker.update(detectionAt(bore(i), kAlong, &rng), stamp(i), kCamera);
   EXPECT_EQ(back.state, TrackState::kTracking);
   EXPECT_NEAR(back.position.z, bore(i).z, 0.01 * bore(i).z);
+}
+
+TEST(SpoolTracker, ATrackWhoseSecondFrameWasWrongEndsEvenAfterCoasting)
+{
+  // Started on the spool, its second frame 5% short (a circle too big, still inside the gate of
+  // a one-frame track): the two give it a velocity of over a metre a second, and a frame with
+  // nothing lets it run on. The next right detection is refused against that prediction: with two
+  // fused frames the track has no history to defend, so it ends there, however many frames it
+  // has coasted, instead of running away.
+  SpoolTracker tracker;
+  tracker.update(detectionAt(approach(0), kAlong, nullptr), stamp(0), kCamera);
+  ASSERT_EQ(tracker.update(detectionAt(approach(1) * 0.95, kAlong, nullptr), stamp(1), kCamera).state,
+            TrackState::kTracking);
+  EXPECT_EQ(tracker.update(nothing(), stamp(2), kCamera).state, TrackState::kCoasting);
+  EXPECT_EQ(tracker.update(detectionAt(approach(3), kAlong, nullptr), stamp(3), kCamera).state, TrackState::kLost);
+  const TrackedSpool& again = tracker.update(detectionAt(approach(4), kAlong, nullptr), stamp(4), kCamera);
+  EXPECT_EQ(again.state, TrackState::kTracking);
+  EXPECT_NEAR(again.position.z, approach(4).z, 0.005);
 }
