@@ -134,6 +134,15 @@ private:
   using Vector6 = Eigen::Matrix<double, 6, 1>;
   using Matrix6 = Eigen::Matrix<double, 6, 6>;
 
+  /// Refused detections that agree with each other: how many, the last one's offset from the
+  /// track (m) and its covariance
+  struct Refuter
+  {
+    int count = 0;
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  };
+
   void start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   void predict(double dt);
   /// Fuses the detection's position unless the gate refuses it; true when fused.
@@ -160,6 +169,12 @@ private:
   /// the stronger evidence (another spool, or the track was wrong): the track is lost.
   bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera,
                    bool whole_frame);
+  /// The detection at `offset` from the track (m) with `covariance` (m^2) is the thing `refuter`
+  /// counts: within track_gate of its last one, given both their errors and the track's.
+  bool agrees(const Refuter& refuter, const Eigen::Vector3d& offset, const Eigen::Matrix3d& covariance) const;
+  /// The detection agrees with the ones refused on the last two frames or more (consecutive_).
+  bool repeatsRefused(const SpoolDetection& detection, const MeasurementNoise& noise,
+                      const CameraIntrinsics& camera) const;
   void publish(bool fused);
   /// The filter's position covariance plus the depth bias it cannot average out (bias_).
   Eigen::Matrix3d publishedCovariance() const;
@@ -189,16 +204,8 @@ private:
   int confirmed_ = 0;     ///< frames in a row whose filtered state cleared the bore
   int fused_frames_ = 0;  ///< detections fused since the track started (its first among them)
   double support_ = 0.0;  ///< confidence of the last fused detection
-  /// Refused detections that agree with each other: how many, the last one's offset from the
-  /// track (m) and its covariance
-  struct Refuter
-  {
-    int count = 0;
-    Eigen::Vector3d offset = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  };
-  Refuter consecutive_;  ///< in consecutive frames
-  Refuter whole_frame_;  ///< in consecutive whole-frame searches
+  Refuter consecutive_;   ///< in consecutive frames
+  Refuter whole_frame_;   ///< in consecutive whole-frame searches
 };
 
 /// One frame through the detector and the tracker, as the node and spool_detect --track run it.

@@ -235,7 +235,10 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   }
   else if (usable(detection))
   {
-    fused = fusePosition(detection, noise, camera);
+    // One that agrees with the detections refused on the last two frames or more is that other
+    // thing again (a circle too big, taken on frame after frame), however close the gate, widened
+    // by the coasting, lets it come.
+    fused = !repeatsRefused(detection, noise, camera) && fusePosition(detection, noise, camera);
     if (fused)
     {
       rib_ratio_.reset();  // the next rib episode learns its ring's size afresh
@@ -446,6 +449,25 @@ bool SpoolTracker::fuseSlopes(const Eigen::Vector2d& slopes, const Eigen::Matrix
   return true;
 }
 
+bool SpoolTracker::agrees(const Refuter& refuter, const Eigen::Vector3d& offset,
+                          const Eigen::Matrix3d& covariance) const
+{
+  // Two refused detections of one other thing agree with each other within both their errors
+  // and the track's own uncertainty.
+  if (refuter.count == 0)
+    return false;
+  const Eigen::Vector3d d = offset - refuter.offset;
+  const Eigen::Matrix3d s = covariance + refuter.cov + p_.topLeftCorner<3, 3>();
+  return d.dot(s.ldlt().solve(d)) <= params_.tracker.gate * params_.tracker.gate;
+}
+
+bool SpoolTracker::repeatsRefused(const SpoolDetection& detection, const MeasurementNoise& noise,
+                                  const CameraIntrinsics& camera) const
+{
+  return consecutive_.count >= 2 &&
+         agrees(consecutive_, toEigen(detection.position) - x_.head<3>(), positionCovariance(detection, noise, camera));
+}
+
 bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise,
                                const CameraIntrinsics& camera, bool whole_frame)
 {
@@ -458,16 +480,7 @@ bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const Measuremen
   const Eigen::Matrix3d cov = positionCovariance(detection, noise, camera);
   auto count = [&](Refuter& refuter)
   {
-    // Two refused detections of one other thing agree with each other within both their errors
-    // and the track's own uncertainty.
-    bool agrees = false;
-    if (refuter.count > 0)
-    {
-      const Eigen::Vector3d d = offset - refuter.offset;
-      const Eigen::Matrix3d s = cov + refuter.cov + p_.topLeftCorner<3, 3>();
-      agrees = d.dot(s.ldlt().solve(d)) <= params_.tracker.gate * params_.tracker.gate;
-    }
-    refuter.count = agrees ? refuter.count + 1 : 1;
+    refuter.count = agrees(refuter, offset, cov) ? refuter.count + 1 : 1;
     refuter.offset = offset;
     refuter.cov = cov;
     return refuter.count >= 2;
