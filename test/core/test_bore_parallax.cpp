@@ -120,10 +120,11 @@ TEST(DiscOverlap, MatchesPixelCountingInEveryCase)
     double area = 0.0;
     cv::Point2d moment(0.0, 0.0);
     constexpr double kStep = 0.05;
-    for (double y = -20.0; y < 20.0; y += kStep)
-      for (double x = -20.0; x < 20.0; x += kStep)
+    constexpr int kCells = 800;  // 40 px across
+    for (int j = 0; j < kCells; ++j)
+      for (int i = 0; i < kCells; ++i)
       {
-        const cv::Point2d p(x + 0.5 * kStep, y + 0.5 * kStep);
+        const cv::Point2d p(-20.0 + (i + 0.5) * kStep, -20.0 + (j + 0.5) * kStep);
         if (p.dot(p) <= r1 * r1 && (p - k.c2).dot(p - k.c2) <= k.r2 * k.r2)
         {
           area += kStep * kStep;
