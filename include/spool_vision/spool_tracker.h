@@ -172,7 +172,8 @@ private:
   /// The detection at `offset` from the track (m) with `covariance` (m^2) is the thing `refuter`
   /// counts: within track_gate of its last one, given both their errors and the track's.
   bool agrees(const Refuter& refuter, const Eigen::Vector3d& offset, const Eigen::Matrix3d& covariance) const;
-  /// The detection agrees with the ones refused on the last two frames or more (consecutive_).
+  /// The detection agrees with the ones refused on the last two frames or more (consecutive_) and
+  /// lies nearer them than the track's prediction (Mahalanobis).
   bool repeatsRefused(const SpoolDetection& detection, const MeasurementNoise& noise,
                       const CameraIntrinsics& camera) const;
   void publish(bool fused);

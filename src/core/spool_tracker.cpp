@@ -464,8 +464,16 @@ bool SpoolTracker::agrees(const Refuter& refuter, const Eigen::Vector3d& offset,
 bool SpoolTracker::repeatsRefused(const SpoolDetection& detection, const MeasurementNoise& noise,
                                   const CameraIntrinsics& camera) const
 {
-  return consecutive_.count >= 2 &&
-         agrees(consecutive_, toEigen(detection.position) - x_.head<3>(), positionCovariance(detection, noise, camera));
+  if (consecutive_.count < 2)
+    return false;
+  const Eigen::Vector3d offset = toEigen(detection.position) - x_.head<3>();
+  const Eigen::Matrix3d covariance = positionCovariance(detection, noise, camera);
+  // Nearer the refused thing than the track, too: a coasting track's uncertainty makes the spool's
+  // own detection agree with both (a circle 6% too big refused twice, then the flange again).
+  const Eigen::Matrix3d s = covariance + p_.topLeftCorner<3, 3>();
+  const Eigen::Vector3d d = offset - consecutive_.offset;
+  const double to_refused = d.dot((s + consecutive_.cov).ldlt().solve(d));
+  return agrees(consecutive_, offset, covariance) && to_refused < offset.dot(s.ldlt().solve(offset));
 }
 
 bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise,

@@ -539,3 +539,24 @@ TEST(SpoolTracker, TheSameWrongCircleOnFrameAfterFrameIsNeverFused)
     EXPECT_NEAR(t.position.z, bore(i).z, 0.02 * bore(i).z) << i;
   }
 }
+
+TEST(SpoolTracker, TheFlangeAfterTwoRefusedCirclesIsFusedAgain)
+{
+  // At 10 Hz, two frames take a circle 6% too big (refused, the track coasts), then the flange
+  // comes back: with the coasting track's uncertainty it agrees with the refused circles too, but
+  // it lies on the track, so it is fused, not refused as the other thing again.
+  std::mt19937 rng(47);
+  SpoolTracker tracker;
+  auto bore = [](int i) { return cv::Point3d(0.0, 0.06, 1.05 - 0.015 * i); };
+  for (int i = 0; i < 25; ++i)
+    tracker.update(detectionAt(bore(i), kAlong, &rng), 100.0 + 0.1 * i, kCamera);
+  for (int i = 25; i < 27; ++i)
+    EXPECT_EQ(tracker.update(detectionAt(bore(i) * 0.94, kAlong, &rng, 0.8), 100.0 + 0.1 * i, kCamera).state,
+              TrackState::kCoasting);
+  for (int i = 27; i < 32; ++i)
+  {
+    const TrackedSpool& t = tracker.update(detectionAt(bore(i), kAlong, &rng), 100.0 + 0.1 * i, kCamera);
+    EXPECT_EQ(t.state, TrackState::kTracking) << i;
+    EXPECT_NEAR(t.position.z, bore(i).z, 0.01 * bore(i).z) << i;
+  }
+}
