@@ -6,13 +6,13 @@
 // 640x480 (f = 800 px), against ~1.4 px for the flange rim's ellipse centre.
 #pragma once
 
-#include <array>
 #include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "spool_vision/detector_params.h"
+#include "spool_vision/hough_accumulator.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision
@@ -27,16 +27,15 @@ struct LensView
 };
 
 /// The lens inside the front rim about `centre` with radius `radius` (undistorted px) of the
-/// 8-bit frame `gray8` taken through `camera`'s lens (sampled where the lens puts each
-/// undistorted pixel, bilinear), in linear light (`linear_light`: Preprocessor::linearLight()).
+/// frame `light` reads (its gray frame must be CV_8UC1) taken through `camera`'s lens, in linear
+/// light: sampled where the lens puts each undistorted pixel (linearLightAt()).
 /// The disc is read 1 px plus 5% of its radius inside the rim (the rim's own blur), each pixel
 /// weighted by a ramp over the middle half between the disc's 5th and 98th brightness
 /// percentiles (a blurred step's half-way point in linear light stays on the edge). nullopt when the disc is under 4
 /// px, its contrast under kMinLensContrast (a dark bore), or the lit part under 3% or over 97% of it. `samples` is
 /// scratch.
-std::optional<LensView> measureLens(const cv::Mat& gray8, const std::array<float, 256>& linear_light,
-                                    const CameraIntrinsics& camera, const cv::Point2d& centre, double radius,
-                                    std::vector<float>& samples);
+std::optional<LensView> measureLens(const LinearLight& light, const CameraIntrinsics& camera, const cv::Point2d& centre,
+                                    double radius, std::vector<float>& samples);
 
 /// The overlap of two discs: its area (px^2) and centroid. Closed form: two circular segments
 /// cut by the common chord, each with its centroid 2 c^3 / (3 A) from its circle's centre (c the

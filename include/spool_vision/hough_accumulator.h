@@ -29,6 +29,10 @@ struct LinearLight
   double reach = 4.0;             ///< px either side of an edge that its profile is read over
 };
 
+/// The linear light at (x, y) (px of `linear`'s gray frame): the four pixels' linear light,
+/// interpolated bilinearly; positions clamped to the frame.
+float linearLightAt(const LinearLight& linear, float x, float y);
+
 /// Sobel gradients, non-maximum suppression along the gradient and sub-pixel edge positions.
 class EdgeDetector
 {

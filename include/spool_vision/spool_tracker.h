@@ -145,8 +145,6 @@ private:
 
   void start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   void predict(double dt);
-  /// Fuses the detection's position unless the gate refuses it; true when fused.
-  bool fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   /// One position measurement (camera frame, m) with its covariance (m^2), gated; true when fused.
   bool fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
   /// The detection is this spool's own rib ring taken for the flange: its bore inside the track's
@@ -169,13 +167,13 @@ private:
   /// the stronger evidence (another spool, or the track was wrong): the track is lost.
   bool refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera,
                    bool whole_frame);
-  /// The detection at `offset` from the track (m) with `covariance` (m^2) is the thing `refuter`
-  /// counts: within track_gate of its last one, given both their errors and the track's.
-  bool agrees(const Refuter& refuter, const Eigen::Vector3d& offset, const Eigen::Matrix3d& covariance) const;
-  /// The detection agrees with the ones refused on the last two frames or more (consecutive_) and
-  /// lies nearer them than the track's prediction (Mahalanobis).
-  bool repeatsRefused(const SpoolDetection& detection, const MeasurementNoise& noise,
-                      const CameraIntrinsics& camera) const;
+  /// Squared Mahalanobis distance of the detection at `offset` from the track (m), with
+  /// `covariance` (m^2), from the last one `refuter` counted, given both their errors and the
+  /// track's (infinite when it counted none): within track_gate^2 it is the same thing.
+  double distance2To(const Refuter& refuter, const Eigen::Vector3d& offset, const Eigen::Matrix3d& covariance) const;
+  /// The detection (position covariance `covariance`) is the thing refused on the last two frames
+  /// or more (consecutive_) and lies nearer it than the track's prediction (Mahalanobis).
+  bool repeatsRefused(const SpoolDetection& detection, const Eigen::Matrix3d& covariance) const;
   void publish(bool fused);
   /// The filter's position covariance plus the depth bias it cannot average out (bias_).
   Eigen::Matrix3d publishedCovariance() const;

@@ -16,18 +16,6 @@ double lensMargin(double radius)
   return 1.0 + 0.05 * radius;
 }
 
-// Bilinear sample of `gray8` at (x, y), which must lie within the frame less its last row and column.
-float bilinear(const cv::Mat& gray8, double x, double y)
-{
-  const int x0 = cvFloor(x);
-  const int y0 = cvFloor(y);
-  const float ax = static_cast<float>(x - x0);
-  const float ay = static_cast<float>(y - y0);
-  const uchar* r0 = gray8.ptr<uchar>(y0) + x0;
-  const uchar* r1 = gray8.ptr<uchar>(y0 + 1) + x0;
-  return (1.0f - ay) * ((1.0f - ax) * r0[0] + ax * r0[1]) + ay * ((1.0f - ax) * r1[0] + ax * r1[1]);
-}
-
 // The segment of a circle of radius r beyond a chord at signed distance a from its centre:
 // area, and its centroid's distance from the centre along the chord's normal.
 void segment(double r, double a, double half_chord, double& area, double& offset)
@@ -101,11 +89,11 @@ std::optional<Solution> solve(const Inputs& in, const GeometryParams& geometry, 
 }
 }  // namespace
 
-std::optional<LensView> measureLens(const cv::Mat& gray8, const std::array<float, 256>& linear_light,
-                                    const CameraIntrinsics& camera, const cv::Point2d& centre, double radius,
-                                    std::vector<float>& samples)
+std::optional<LensView> measureLens(const LinearLight& light, const CameraIntrinsics& camera, const cv::Point2d& centre,
+                                    double radius, std::vector<float>& samples)
 {
   const double inner = radius - lensMargin(radius);
+  const cv::Mat& gray8 = *light.gray;
   if (!(inner >= 4.0) || gray8.type() != CV_8UC1)
     return std::nullopt;
   const int x0 = cvFloor(centre.x - inner);
@@ -129,10 +117,7 @@ std::optional<LensView> measureLens(const cv::Mat& gray8, const std::array<float
         const cv::Point2d seen = distortPixel(camera, {double(x), double(y)});
         inside = inside && seen.x >= 0.0 && seen.y >= 0.0 && seen.x < gray8.cols - 1 && seen.y < gray8.rows - 1;
         // In linear light: the camera's gamma would put a blurred edge's half-way level on its dark side.
-        const float level = inside ? bilinear(gray8, seen.x, seen.y) : 0.0f;
-        const auto below = static_cast<std::size_t>(std::min(level, 254.0f));
-        const float t = level - static_cast<float>(below);
-        const float value = 255.0f * ((1.0f - t) * linear_light[below] + t * linear_light[below + 1]);
+        const float value = 255.0f * linearLightAt(light, static_cast<float>(seen.x), static_cast<float>(seen.y));
         samples.push_back(value);
         ++histogram[static_cast<std::size_t>(std::clamp(value, 0.0f, 255.0f))];
       });

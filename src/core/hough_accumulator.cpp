@@ -497,9 +497,6 @@ int EdgeDetector::boundedThreshold(const cv::Rect& area, int t2, std::size_t max
   return t2;
 }
 
-namespace
-{
-// The linear light at (x, y) of `linear`'s gray frame: bilinear, clamped to the frame.
 float linearLightAt(const LinearLight& linear, float x, float y)
 {
   const cv::Mat& gray = *linear.gray;
@@ -517,6 +514,9 @@ float linearLightAt(const LinearLight& linear, float x, float y)
   return (1.0f - fy) * ((1.0f - fx) * table[top[x0]] + fx * table[top[x1]]) +
          fy * ((1.0f - fx) * table[bottom[x0]] + fx * table[bottom[x1]]);
 }
+
+namespace
+{
 
 constexpr int kMaxHalfSteps = 16;
 

@@ -423,8 +423,9 @@ void SpoolDetector::measureBoreParallax(const SpoolGeometry& geometry, SpoolDete
   // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
   if (!result.hole_detected || params_.hough.hole_polarity == Polarity::kBright || !(result.position.z > 0.0))
     return;
-  const std::optional<LensView> lens = measureLens(preprocessor_.gray(), preprocessor_.linearLight(), geometry.camera(),
-                                                   {result.hole.x, result.hole.y}, result.hole.r, lens_samples_);
+  const LinearLight light{&preprocessor_.gray(), preprocessor_.linearLight().data()};
+  const std::optional<LensView> lens =
+      measureLens(light, geometry.camera(), {result.hole.x, result.hole.y}, result.hole.r, lens_samples_);
   if (!lens)
     return;
   const std::optional<ParallaxAxis> axis = axisFromBoreParallax(

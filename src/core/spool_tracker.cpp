@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -78,21 +79,33 @@ Eigen::Vector3d toEigen(const cv::Point3d& p)
   return {p.x, p.y, p.z};
 }
 
-// Covariance (m^2) of a detection's position: the depth error runs along the ray through the
-// bore's centre (p = z (u, v, 1), Eq. 3.2 scales the whole ray), the centre's pixel error across it.
-Eigen::Matrix3d positionCovariance(const SpoolDetection& d, const MeasurementNoise& noise,
-                                   const CameraIntrinsics& camera)
+// Covariance (m^2) of a position `p` measured from the image: its depth error `relative_z` (of z)
+// runs along the ray through it (p = z (u, v, 1): a scale error moves the whole ray), the centre's
+// pixel error `centre_px` across it.
+Eigen::Matrix3d rayCovariance(const Eigen::Vector3d& p, double relative_z, double centre_px,
+                              const CameraIntrinsics& camera)
 {
-  const Eigen::Vector3d p = toEigen(d.position);
   const double z = p.z();
   const Eigen::Vector3d ray = p / z;
-  const double r_px = d.flange.r_vertical > 0.0 ? d.flange.r_vertical : d.flange.r;
-  const double sigma_z = z * noise.radius_px / std::max(r_px, 1.0);
-  const double sigma_across = z * noise.centre_px / std::max(std::min(camera.fx, camera.fy), 1.0);
+  const double sigma_z = z * relative_z;
+  const double sigma_across = z * centre_px / std::max(std::min(camera.fx, camera.fy), 1.0);
   Eigen::Matrix3d r = sigma_z * sigma_z * ray * ray.transpose();
   r(0, 0) += sigma_across * sigma_across;
   r(1, 1) += sigma_across * sigma_across;
   return r;
+}
+
+// The flange radius a detection's depth comes from (px): Eq. 3.2's.
+double flangeRadiusPx(const SpoolDetection& d)
+{
+  return std::max(d.flange.r_vertical > 0.0 ? d.flange.r_vertical : d.flange.r, 1.0);
+}
+
+// Covariance (m^2) of a detection's position (rayCovariance: Eq. 3.2's depth from the flange radius).
+Eigen::Matrix3d positionCovariance(const SpoolDetection& d, const MeasurementNoise& noise,
+                                   const CameraIntrinsics& camera)
+{
+  return rayCovariance(toEigen(d.position), noise.radius_px / flangeRadiusPx(d), noise.centre_px, camera);
 }
 
 // The part of a detection's position covariance no filter averages out. Its errors are
@@ -238,7 +251,8 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
     // One that agrees with the detections refused on the last two frames or more is that other
     // thing again (a circle too big, taken on frame after frame), however close the gate, widened
     // by the coasting, lets it come.
-    fused = !repeatsRefused(detection, noise, camera) && fusePosition(detection, noise, camera);
+    const Eigen::Matrix3d covariance = positionCovariance(detection, noise, camera);
+    fused = !repeatsRefused(detection, covariance) && fuseMeasurement(toEigen(detection.position), covariance);
     if (fused)
     {
       rib_ratio_.reset();  // the next rib episode learns its ring's size afresh
@@ -307,12 +321,6 @@ void SpoolTracker::predict(double dt)
     axis_p_ += params_.tracker.axis_drift * params_.tracker.axis_drift * dt * Eigen::Matrix2d::Identity();
 }
 
-bool SpoolTracker::fusePosition(const SpoolDetection& detection, const MeasurementNoise& noise,
-                                const CameraIntrinsics& camera)
-{
-  return fuseMeasurement(toEigen(detection.position), positionCovariance(detection, noise, camera));
-}
-
 bool SpoolTracker::fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance)
 {
   const Eigen::Vector3d innovation = position - x_.head<3>();
@@ -360,8 +368,7 @@ bool SpoolTracker::followRibRing(const SpoolDetection& detection, const Measurem
   // robot may stop at the insertion window) instead of coasting on its last velocity.
   const Eigen::Vector3d p = x_.head<3>();
   const Eigen::Vector3d q = toEigen(detection.position);
-  const double r_px = detection.flange.r_vertical > 0.0 ? detection.flange.r_vertical : detection.flange.r;
-  const double ring_var = std::pow(noise.radius_px / std::max(r_px, 1.0), 2.0);  // relative, of the ring's depth
+  const double ring_var = std::pow(noise.radius_px / flangeRadiusPx(detection), 2.0);  // relative, of the ring's depth
   if (!rib_ratio_)
   {
     rib_ratio_ = p.z() / q.z();
@@ -371,13 +378,8 @@ bool SpoolTracker::followRibRing(const SpoolDetection& detection, const Measurem
   // Along the ray through its bore centre, at the ratio's depth; the ratio's error is shared by
   // every frame of the episode: a bias of the track.
   const Eigen::Vector3d position = *rib_ratio_ * q;
-  const double z = position.z();
-  const Eigen::Vector3d ray = position / z;
-  const double sigma_z = z * std::sqrt(ring_var + rib_ratio_var_ / (*rib_ratio_ * *rib_ratio_));
-  const double sigma_across = z * noise.centre_px / std::max(std::min(camera.fx, camera.fy), 1.0);
-  Eigen::Matrix3d covariance = sigma_z * sigma_z * ray * ray.transpose();
-  covariance(0, 0) += sigma_across * sigma_across;
-  covariance(1, 1) += sigma_across * sigma_across;
+  const Eigen::Matrix3d covariance = rayCovariance(
+      position, std::sqrt(ring_var + rib_ratio_var_ / (*rib_ratio_ * *rib_ratio_)), noise.centre_px, camera);
   if (!fuseMeasurement(position, covariance))
     return false;  // another rib of the face (60-86% of the flange): the ratio is not its
   bias_ = covariance;
@@ -403,11 +405,13 @@ void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNo
   const Eigen::Matrix2d rim_r = noise.axis * noise.axis * Eigen::Matrix2d::Identity();
   if (!axis_known_)
   {
-    axis_ = rim ? rim_slopes : parallax_slopes;
-    axis_p_ = rim ? rim_r : parallax_r;
+    // Started from the rim where it gave an axis, the parallax then fused into it.
     axis_known_ = true;
     axis_refused_ = 0;
-    axis_cue_ = rim && !(parallax && fuseSlopes(parallax_slopes, parallax_r)) ? AxisCue::kRim : AxisCue::kBoreParallax;
+    axis_ = rim ? rim_slopes : parallax_slopes;
+    axis_p_ = rim ? rim_r : parallax_r;
+    const bool parallax_fused = rim && parallax && fuseSlopes(parallax_slopes, parallax_r);
+    axis_cue_ = rim && !parallax_fused ? AxisCue::kRim : AxisCue::kBoreParallax;
     return;
   }
   // The parallax first: the rim's measurement is then gated against the sharper axis.
@@ -449,31 +453,29 @@ bool SpoolTracker::fuseSlopes(const Eigen::Vector2d& slopes, const Eigen::Matrix
   return true;
 }
 
-bool SpoolTracker::agrees(const Refuter& refuter, const Eigen::Vector3d& offset,
-                          const Eigen::Matrix3d& covariance) const
+double SpoolTracker::distance2To(const Refuter& refuter, const Eigen::Vector3d& offset,
+                                 const Eigen::Matrix3d& covariance) const
 {
   // Two refused detections of one other thing agree with each other within both their errors
   // and the track's own uncertainty.
   if (refuter.count == 0)
-    return false;
+    return std::numeric_limits<double>::infinity();
   const Eigen::Vector3d d = offset - refuter.offset;
   const Eigen::Matrix3d s = covariance + refuter.cov + p_.topLeftCorner<3, 3>();
-  return d.dot(s.ldlt().solve(d)) <= params_.tracker.gate * params_.tracker.gate;
+  return d.dot(s.ldlt().solve(d));
 }
 
-bool SpoolTracker::repeatsRefused(const SpoolDetection& detection, const MeasurementNoise& noise,
-                                  const CameraIntrinsics& camera) const
+bool SpoolTracker::repeatsRefused(const SpoolDetection& detection, const Eigen::Matrix3d& covariance) const
 {
   if (consecutive_.count < 2)
     return false;
   const Eigen::Vector3d offset = toEigen(detection.position) - x_.head<3>();
-  const Eigen::Matrix3d covariance = positionCovariance(detection, noise, camera);
+  const double to_refused = distance2To(consecutive_, offset, covariance);
   // Nearer the refused thing than the track, too: a coasting track's uncertainty makes the spool's
   // own detection agree with both (a circle 6% too big refused twice, then the flange again).
-  const Eigen::Matrix3d s = covariance + p_.topLeftCorner<3, 3>();
-  const Eigen::Vector3d d = offset - consecutive_.offset;
-  const double to_refused = d.dot((s + consecutive_.cov).ldlt().solve(d));
-  return agrees(consecutive_, offset, covariance) && to_refused < offset.dot(s.ldlt().solve(offset));
+  const Eigen::Matrix3d to_track = covariance + p_.topLeftCorner<3, 3>();
+  return to_refused <= params_.tracker.gate * params_.tracker.gate &&
+         to_refused < offset.dot(to_track.ldlt().solve(offset));
 }
 
 bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const MeasurementNoise& noise,
@@ -488,7 +490,8 @@ bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const Measuremen
   const Eigen::Matrix3d cov = positionCovariance(detection, noise, camera);
   auto count = [&](Refuter& refuter)
   {
-    refuter.count = agrees(refuter, offset, cov) ? refuter.count + 1 : 1;
+    refuter.count =
+        distance2To(refuter, offset, cov) <= params_.tracker.gate * params_.tracker.gate ? refuter.count + 1 : 1;
     refuter.offset = offset;
     refuter.cov = cov;
     return refuter.count >= 2;

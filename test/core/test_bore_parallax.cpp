@@ -19,12 +19,18 @@ constexpr double kBoreRadius = 0.018;
 constexpr double kDeg = M_PI / 180.0;
 
 // Gamma 1: the drawing is in linear light already.
-std::array<float, 256> identityLight()
+const std::array<float, 256> kIdentityLight = []
 {
   std::array<float, 256> light{};
   for (std::size_t i = 0; i < light.size(); ++i)
     light[i] = static_cast<float>(i) / 255.0f;
   return light;
+}();
+
+// `gray` read as light.
+spool_vision::LinearLight lightOf(const cv::Mat& gray)
+{
+  return {&gray, kIdentityLight.data()};
 }
 
 struct Opening
@@ -97,7 +103,7 @@ std::optional<spool_vision::ParallaxAxis> measureDrawn(const Bore& bore, const O
   const cv::Mat gray = drawBore(front, project(bore.back), spot);
   std::vector<float> samples;
   const std::optional<spool_vision::LensView> lens =
-      spool_vision::measureLens(gray, identityLight(), kCamera, front.centre, front.radius, samples);
+      spool_vision::measureLens(lightOf(gray), kCamera, front.centre, front.radius, samples);
   if (!lens)
     return std::nullopt;
   return spool_vision::axisFromBoreParallax(GeometryParams(), kCamera, front.centre, bore.front.z, *lens);
@@ -191,9 +197,9 @@ TEST(BoreParallax, MeasureLensRejectsAFrameItCannotRead)
   std::vector<float> samples;
   const cv::Mat gray = drawBore(project(boreAt(0.55, 0.0, 0.0, 0.0).front), project(boreAt(0.55, 0.0, 0.0, 0.0).back));
   // A disc too small, one leaving the frame, a colour frame.
-  EXPECT_FALSE(spool_vision::measureLens(gray, identityLight(), kCamera, {320.0, 240.0}, 4.0, samples));
-  EXPECT_FALSE(spool_vision::measureLens(gray, identityLight(), kCamera, {3.0, 240.0}, 20.0, samples));
+  EXPECT_FALSE(spool_vision::measureLens(lightOf(gray), kCamera, {320.0, 240.0}, 4.0, samples));
+  EXPECT_FALSE(spool_vision::measureLens(lightOf(gray), kCamera, {3.0, 240.0}, 20.0, samples));
   cv::Mat colour;
   cv::merge(std::vector<cv::Mat>{gray, gray, gray}, colour);
-  EXPECT_FALSE(spool_vision::measureLens(colour, identityLight(), kCamera, {320.0, 240.0}, 20.0, samples));
+  EXPECT_FALSE(spool_vision::measureLens(lightOf(colour), kCamera, {320.0, 240.0}, 20.0, samples));
 }
