@@ -1,0 +1,104 @@
+// spool_sim's closed-loop trial: a Forklift whose camera frames are rendered by SpoolRenderer
+// (the hard set's webcam, faces and clutter, a C270-like lens, a smear from the robot's own
+// motion), read by TrackingDetector, and driven by ApproachController from what the node would
+// publish, until the controller pushes the puller in. The renderer's exact geometry judges the
+// push. ROS-free.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/control/approach_controller.h"
+#include "spool_vision/detector_params.h"
+#include "spool_vision/sim/forklift.h"
+#include "spool_vision/spool_tracker.h"
+
+namespace spool_vision
+{
+enum class TrialOutcome
+{
+  kInserted,   ///< pushed in; the puller's axis within t_f of the bore's at its front and back
+  kCollision,  ///< pushed in and the puller would touch the bore or the face, or drove into the face
+  kTimeout,    ///< no push within the step budget or the controller's tries
+  kLost,       ///< gave up with no spool held (the target out of view or never tracked)
+  kWrongSpool  ///< pushed at another slot (the puller's axis meets the face plane off the target's flange)
+};
+
+const char* toString(TrialOutcome outcome);
+
+/// Where a trial starts: drawn from its seed (drawTrialStart).
+struct TrialStart
+{
+  ForkliftState robot;
+  ActuationError actuation;
+  std::uint64_t scene_seed = 0;  ///< randomHardScene's seed: the shelf, lamps, faces, clutter
+};
+
+/// A start 0.9-1.2 m from the face, up to 15 cm beside the bore axis, the heading up to 10 deg off
+/// the bearing of the bore plus up to 5 deg of spool turn (the renderer turns the shelf with the
+/// spool), the lift up to 2 cm off the bore's height, speed and yaw-rate scale errors of up to 3%
+/// and 2% noise per period. Deterministic in `seed`.
+TrialStart drawTrialStart(std::uint64_t seed);
+
+struct TrialConfig
+{
+  std::uint64_t seed = 1;
+  cv::Size size{640, 480};
+  double rate = 10.0;   ///< Hz: one frame and one control period each
+  int max_steps = 300;  ///< control periods before a timeout
+  /// Drive on the renderer's truth instead of the detector (proves the simulation and the
+  /// controller: it must insert every time)
+  bool oracle = false;
+  bool keep_pictures = false;  ///< keep the first, the worst and the last frame with the overlay
+  DetectorParams detector;
+  ApproachControllerParams controller;
+  ForkliftLimits limits;
+};
+
+/// One control period.
+struct TrialStep
+{
+  double time = 0.0;  ///< s
+  ForkliftState robot;
+  ApproachPhase phase = ApproachPhase::kApproach;  ///< after this period's command
+  TrackState track_state = TrackState::kSearching;
+  bool detected = false;
+  bool aligned = false;          ///< published
+  bool truly_aligned = false;    ///< the renderer's truth
+  double true_depth = 0.0;       ///< m
+  double published_depth = 0.0;  ///< m, NaN without a held spool
+};
+
+struct TrialResult
+{
+  std::uint64_t seed = 0;
+  TrialStart start;
+  TrialOutcome outcome = TrialOutcome::kTimeout;
+  int steps = 0;
+  double time_to_insert = 0.0;  ///< s from the start to the push; NaN without one
+  /// m, the puller's axis from the bore's at the front face and at the bore's back end, at the
+  /// push (truth); NaN without one
+  double front_miss = 0.0;
+  double back_miss = 0.0;
+  double tolerance = 0.0;  ///< m, t_f
+  int frames_detected = 0;
+  int frames_coasting = 0;
+  int frames_refused = 0;
+  int retries = 0;
+  double worst_depth_error = 0.0;  ///< relative, over the frames with a held spool
+  std::vector<TrialStep> trajectory;
+  cv::Mat first_frame, worst_frame, last_frame;  ///< BGR with the overlay (keep_pictures)
+};
+
+/// The puller's axis against the bore's (the renderer's geometry: bore axis along world z through
+/// x = 0 at the hole's height) at the front face and `bore_length` behind it (m).
+void pullerMisses(const ForkliftState& robot, double puller_offset_y, double bore_length, double& front, double& back);
+
+/// Runs one trial. Throws std::invalid_argument on a bad configuration (size, rate, steps) and
+/// ParamError on bad detector parameters.
+TrialResult runTrial(const TrialConfig& config);
+
+}  // namespace spool_vision

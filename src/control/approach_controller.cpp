@@ -1,0 +1,218 @@
+#include "spool_vision/control/approach_controller.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace spool_vision
+{
+namespace
+{
+void requirePositive(double value, const char* key)
+{
+  if (!(value > 0.0) || !std::isfinite(value))
+    throw std::invalid_argument(std::string("approach controller: ") + key + " must be a finite number > 0, got " +
+                                std::to_string(value));
+}
+}  // namespace
+
+const char* toString(ApproachPhase phase)
+{
+  switch (phase)
+  {
+    case ApproachPhase::kApproach:
+      return "approach";
+    case ApproachPhase::kHold:
+      return "hold";
+    case ApproachPhase::kBackOff:
+      return "back_off";
+    case ApproachPhase::kInsert:
+      return "insert";
+    case ApproachPhase::kGaveUp:
+      return "gave_up";
+  }
+  return "?";
+}
+
+ApproachController::ApproachController(const ApproachControllerParams& params, const GeometryParams& geometry)
+  : params_(params), geometry_(geometry)
+{
+  requirePositive(params.standoff_depth, "standoff_depth");
+  requirePositive(params.stop_tolerance, "stop_tolerance");
+  requirePositive(params.max_speed, "max_speed");
+  requirePositive(params.min_speed, "min_speed");
+  requirePositive(params.slow_down, "slow_down");
+  requirePositive(params.lookahead, "lookahead");
+  requirePositive(params.heading_gain, "heading_gain");
+  requirePositive(params.max_yaw_rate, "max_yaw_rate");
+  requirePositive(params.lift_gain, "lift_gain");
+  requirePositive(params.max_lift_rate, "max_lift_rate");
+  requirePositive(params.hold_timeout, "hold_timeout");
+  requirePositive(params.lost_timeout, "lost_timeout");
+  requirePositive(params.backoff_distance, "backoff_distance");
+  requirePositive(params.backoff_speed, "backoff_speed");
+  if (!(params.line_memory >= 0.0 && params.line_memory < 1.0))
+    throw std::invalid_argument("approach controller: line_memory must be in [0, 1), got " +
+                                std::to_string(params.line_memory));
+  if (params.min_speed > params.max_speed)
+    throw std::invalid_argument("approach controller: min_speed must not exceed max_speed (" +
+                                std::to_string(params.min_speed) + " > " + std::to_string(params.max_speed) + ")");
+  if (params.max_retries < 0)
+    throw std::invalid_argument("approach controller: max_retries must be >= 0, got " +
+                                std::to_string(params.max_retries));
+}
+
+void ApproachController::floorErrors(const ApproachObservation& observation, const GeometryParams& geometry,
+                                     double& lateral, double& heading, double& depth_to_face)
+{
+  const cv::Point3d& p = observation.position;
+  double ax = observation.axis[0];
+  double az = observation.axis[2];
+  const double norm = std::hypot(ax, az);
+  if (!(norm > 0.0) || !std::isfinite(norm))
+  {
+    // No axis yet: take the spool as square to the camera.
+    ax = 0.0;
+    az = 1.0;
+  }
+  else
+  {
+    ax /= norm;
+    az /= norm;
+  }
+  // The puller's point in the floor plane and the bore axis line through p along (ax, az).
+  const double dx = p.x - geometry.puller_offset_x;
+  const double dz = p.z;
+  depth_to_face = dx * ax + dz * az;
+  // Right-pointing normal of the axis: (az, -ax).
+  lateral = -(dx * az - dz * ax);
+  heading = std::atan2(ax, az);
+}
+
+void ApproachController::observeLine(const ApproachObservation& observation, const OdometryPose& odometry)
+{
+  const double c = std::cos(odometry.heading);
+  const double s = std::sin(odometry.heading);
+  const cv::Point3d& p = observation.position;
+  AxisLine seen;
+  seen.x = odometry.x + p.x * c + p.z * s;
+  seen.z = odometry.z - p.x * s + p.z * c;
+  const cv::Vec3d& a = observation.axis;
+  // Without an axis yet the spool is taken as square to the camera.
+  seen.heading =
+      odometry.heading + (std::isfinite(a[0]) && std::isfinite(a[2]) && a[2] > 0.0 ? std::atan2(a[0], a[2]) : 0.0);
+  if (!line_)
+  {
+    line_ = seen;
+    return;
+  }
+  const double m = params_.line_memory;
+  line_->x = m * line_->x + (1.0 - m) * seen.x;
+  line_->z = m * line_->z + (1.0 - m) * seen.z;
+  line_->heading = m * line_->heading + (1.0 - m) * seen.heading;
+}
+
+void ApproachController::lineErrors(const OdometryPose& odometry, double& lateral, double& heading,
+                                    double& depth_to_face) const
+{
+  // The estimated line seen from the camera now.
+  const double c = std::cos(odometry.heading);
+  const double s = std::sin(odometry.heading);
+  const double dx = line_->x - odometry.x;
+  const double dz = line_->z - odometry.z;
+  ApproachObservation seen;
+  seen.position = {dx * c - dz * s, 0.0, dx * s + dz * c};
+  const double relative = line_->heading - odometry.heading;
+  seen.axis = {std::sin(relative), 0.0, std::cos(relative)};
+  floorErrors(seen, geometry_, lateral, heading, depth_to_face);
+}
+
+ApproachCommand ApproachController::steer(const ApproachObservation& observation, const OdometryPose& odometry,
+                                          double speed) const
+{
+  double lateral = 0.0;
+  double heading = 0.0;
+  double to_face = 0.0;
+  lineErrors(odometry, lateral, heading, to_face);
+  ApproachCommand command;
+  command.speed = speed;
+  // Turn onto the axis's direction, plus towards the axis point `lookahead` ahead (none when
+  // turning in place: the puller is the turning point, its lateral error stays).
+  const double towards_axis = speed > 0.0 ? std::atan(-lateral / params_.lookahead) : 0.0;
+  command.yaw_rate =
+      std::clamp(params_.heading_gain * (heading + towards_axis), -params_.max_yaw_rate, params_.max_yaw_rate);
+  if (observation.detected && std::isfinite(observation.position.y))
+    command.lift_rate = std::clamp(-params_.lift_gain * (observation.position.y - geometry_.puller_offset_y),
+                                   -params_.max_lift_rate, params_.max_lift_rate);
+  return command;
+}
+
+ApproachCommand ApproachController::approach(const ApproachObservation& observation, const OdometryPose& odometry)
+{
+  double lateral = 0.0;
+  double heading = 0.0;
+  double to_face = 0.0;
+  lineErrors(odometry, lateral, heading, to_face);
+  const double to_go = to_face - params_.standoff_depth;
+  if (to_go <= params_.stop_tolerance)
+  {
+    phase_ = ApproachPhase::kHold;
+    phase_time_ = 0.0;
+    return steer(observation, odometry, 0.0);
+  }
+  return steer(observation, odometry, std::clamp(params_.slow_down * to_go, params_.min_speed, params_.max_speed));
+}
+
+ApproachCommand ApproachController::update(const ApproachObservation& observation, const OdometryPose& odometry,
+                                           double dt)
+{
+  requirePositive(dt, "dt");
+  phase_time_ += dt;
+  const bool held = observation.detected && std::isfinite(observation.position.z);
+  unseen_time_ = held ? 0.0 : unseen_time_ + dt;
+  if (held && !observation.coasting)
+    observeLine(observation, odometry);
+  ApproachCommand command;
+  switch (phase_)
+  {
+    case ApproachPhase::kInsert:
+    case ApproachPhase::kGaveUp:
+      return command;
+    case ApproachPhase::kBackOff:
+      reversed_ += params_.backoff_speed * dt;
+      if (reversed_ < params_.backoff_distance)
+      {
+        command.speed = -params_.backoff_speed;
+        return command;
+      }
+      ++retries_;
+      phase_ = retries_ > params_.max_retries ? ApproachPhase::kGaveUp : ApproachPhase::kApproach;
+      phase_time_ = 0.0;
+      return command;
+    case ApproachPhase::kApproach:
+    case ApproachPhase::kHold:
+      break;
+  }
+  if (held && observation.aligned && !observation.coasting)
+  {
+    phase_ = ApproachPhase::kInsert;
+    command.insert = true;
+    return command;
+  }
+  const bool timed_out = phase_ == ApproachPhase::kHold && phase_time_ > params_.hold_timeout;
+  if (timed_out || unseen_time_ > params_.lost_timeout)
+  {
+    phase_ = ApproachPhase::kBackOff;
+    phase_time_ = 0.0;
+    reversed_ = 0.0;
+    return command;
+  }
+  if (!line_ || !held)
+    return command;  // stand still until the spool is held again
+  if (phase_ == ApproachPhase::kHold)
+    return steer(observation, odometry, 0.0);
+  return approach(observation, odometry);
+}
+
+}  // namespace spool_vision

@@ -1,0 +1,60 @@
+#include "spool_vision/sim/forklift.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace spool_vision
+{
+namespace
+{
+/// `target` reached from `current` at most `max_change` away, within +-`limit`.
+double limited(double target, double current, double max_change, double limit)
+{
+  return std::clamp(std::clamp(target, current - max_change, current + max_change), -limit, limit);
+}
+}  // namespace
+
+Forklift::Forklift(const ForkliftState& start, const ForkliftLimits& limits, const ActuationError& error,
+                   std::uint64_t seed)
+  : state_(start), limits_(limits), error_(error), rng_(seed)
+{
+}
+
+void Forklift::step(const ApproachCommand& command, double dt)
+{
+  // The rate the drive reaches within its acceleration limit, then what the wheels make of it.
+  const double speed =
+      limited(command.speed * error_.speed_scale, state_.speed, limits_.max_acceleration * dt, limits_.max_speed) *
+      (1.0 + error_.noise * rng_.gaussian(1.0));
+  const double yaw_rate = limited(command.yaw_rate * error_.yaw_rate_scale, state_.yaw_rate,
+                                  limits_.max_yaw_acceleration * dt, limits_.max_yaw_rate) *
+                          (1.0 + error_.noise * rng_.gaussian(1.0));
+  const double lift_rate = std::clamp(command.lift_rate, -limits_.max_lift_rate, limits_.max_lift_rate) *
+                           error_.lift_scale * (1.0 + error_.noise * rng_.gaussian(1.0));
+  // Midpoint heading: exact for a constant turn to second order.
+  const double heading = state_.heading + 0.5 * yaw_rate * dt;
+  state_.x += speed * dt * std::sin(heading);
+  state_.depth -= speed * dt * std::cos(heading);
+  state_.heading += yaw_rate * dt;
+  state_.lift += lift_rate * dt;
+  const double turned = yaw_rate * dt * error_.gyro_scale;
+  const double odometry_heading = odometry_.heading + 0.5 * turned;
+  odometry_.x += speed * dt * error_.odometry_scale * std::sin(odometry_heading);
+  odometry_.z += speed * dt * error_.odometry_scale * std::cos(odometry_heading);
+  odometry_.heading += turned;
+  state_.speed = speed;
+  state_.yaw_rate = yaw_rate;
+}
+
+CameraPose Forklift::cameraPose() const
+{
+  CameraPose pose;
+  pose.lateral = state_.x;
+  pose.height = state_.lift;
+  pose.yaw = state_.heading;
+  pose.pitch = 0.0;
+  pose.distance = std::sqrt(state_.depth * state_.depth + state_.x * state_.x + state_.lift * state_.lift);
+  return pose;
+}
+
+}  // namespace spool_vision

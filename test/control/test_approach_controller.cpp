@@ -1,0 +1,143 @@
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "spool_vision/control/approach_controller.h"
+
+namespace sv = spool_vision;
+
+namespace
+{
+constexpr double kDeg = M_PI / 180.0;
+constexpr double kDt = 0.1;
+
+// The bore `depth` ahead on the puller's height, `right` of the puller's axis, its axis turned
+// `turn` (rad) to the right of the optical axis.
+sv::ApproachObservation boreAhead(double depth, double right = 0.0, double turn = 0.0)
+{
+  sv::ApproachObservation o;
+  o.detected = true;
+  o.position = {right, sv::GeometryParams{}.puller_offset_y, depth};
+  o.axis = {std::sin(turn), 0.0, std::cos(turn)};
+  return o;
+}
+}  // namespace
+
+TEST(ApproachController, FloorErrorsOfABoreBesideAndTurned)
+{
+  double lateral = 0.0;
+  double heading = 0.0;
+  double to_face = 0.0;
+  // The bore 1 cm right of the puller, its axis parallel: the puller is 1 cm left of the axis.
+  sv::ApproachController::floorErrors(boreAhead(0.6, 0.01), sv::GeometryParams(), lateral, heading, to_face);
+  EXPECT_NEAR(lateral, -0.01, 1e-12);
+  EXPECT_NEAR(heading, 0.0, 1e-12);
+  EXPECT_NEAR(to_face, 0.6, 1e-12);
+  // Straight ahead but the axis turned 2 deg right: the axis passes 0.6 sin(2 deg) left of the
+  // puller's point, i.e. the puller is right of the axis.
+  sv::ApproachController::floorErrors(boreAhead(0.6, 0.0, 2.0 * kDeg), sv::GeometryParams(), lateral, heading, to_face);
+  EXPECT_NEAR(lateral, 0.6 * std::sin(2.0 * kDeg), 1e-12);
+  EXPECT_NEAR(heading, 2.0 * kDeg, 1e-12);
+  EXPECT_NEAR(to_face, 0.6 * std::cos(2.0 * kDeg), 1e-12);
+}
+
+TEST(ApproachController, BadParametersNameTheKey)
+{
+  sv::ApproachControllerParams p;
+  p.lookahead = 0.0;
+  try
+  {
+    sv::ApproachController controller(p, sv::GeometryParams());
+    FAIL() << "lookahead 0 accepted";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("lookahead"), std::string::npos) << e.what();
+  }
+  p = sv::ApproachControllerParams();
+  p.line_memory = 1.0;
+  EXPECT_THROW(sv::ApproachController(p, sv::GeometryParams()), std::invalid_argument);
+  p = sv::ApproachControllerParams();
+  p.min_speed = 2.0 * p.max_speed;
+  EXPECT_THROW(sv::ApproachController(p, sv::GeometryParams()), std::invalid_argument);
+  sv::ApproachController controller{sv::ApproachControllerParams(), sv::GeometryParams()};
+  EXPECT_THROW(controller.update(boreAhead(1.0), sv::OdometryPose(), 0.0), std::invalid_argument);
+}
+
+TEST(ApproachController, DrivesTowardsABoreOnTheLeftAndStopsAtTheStandoff)
+{
+  sv::ApproachController controller{sv::ApproachControllerParams(), sv::GeometryParams()};
+  const sv::ApproachCommand far = controller.update(boreAhead(1.0, -0.05), sv::OdometryPose(), kDt);
+  EXPECT_GT(far.speed, 0.0);
+  EXPECT_LT(far.yaw_rate, 0.0) << "the bore is left: turn left";
+  EXPECT_FALSE(far.insert);
+  // The same bore seen from the standoff: stop (the line estimate keeps 80% of the far view,
+  // which is the same line).
+  sv::OdometryPose there;
+  there.x = -0.05;
+  there.z = 1.0 - sv::ApproachControllerParams().standoff_depth;
+  const sv::ApproachCommand near =
+      controller.update(boreAhead(sv::ApproachControllerParams().standoff_depth), there, kDt);
+  EXPECT_EQ(controller.phase(), sv::ApproachPhase::kHold);
+  EXPECT_EQ(near.speed, 0.0);
+}
+
+TEST(ApproachController, LiftsThePullerToTheBoresHeight)
+{
+  sv::ApproachController controller{sv::ApproachControllerParams(), sv::GeometryParams()};
+  sv::ApproachObservation low = boreAhead(1.0);
+  low.position.y += 0.01;  // the bore 1 cm lower than the puller (camera y down)
+  EXPECT_LT(controller.update(low, sv::OdometryPose(), kDt).lift_rate, 0.0);
+}
+
+TEST(ApproachController, InsertsOnlyOnAlignedAndNeverWhileCoasting)
+{
+  sv::ApproachController controller{sv::ApproachControllerParams(), sv::GeometryParams()};
+  sv::ApproachObservation o = boreAhead(0.56);
+  o.aligned = true;
+  o.coasting = true;
+  EXPECT_FALSE(controller.update(o, sv::OdometryPose(), kDt).insert);
+  o.coasting = false;
+  o.aligned = false;
+  EXPECT_FALSE(controller.update(o, sv::OdometryPose(), kDt).insert);
+  o.aligned = true;
+  EXPECT_TRUE(controller.update(o, sv::OdometryPose(), kDt).insert);
+  EXPECT_EQ(controller.phase(), sv::ApproachPhase::kInsert);
+}
+
+TEST(ApproachController, BacksOffWhenAlignedDoesNotComeAndGivesUpAfterItsRetries)
+{
+  sv::ApproachControllerParams p;
+  p.max_retries = 1;
+  sv::ApproachController controller(p, sv::GeometryParams());
+  const sv::ApproachObservation at_standoff = boreAhead(p.standoff_depth);
+  int backed_off = 0;
+  for (int step = 0; step < 400 && controller.phase() != sv::ApproachPhase::kGaveUp; ++step)
+  {
+    const sv::ApproachCommand c = controller.update(at_standoff, sv::OdometryPose(), kDt);
+    EXPECT_FALSE(c.insert);
+    backed_off += c.speed < 0.0 ? 1 : 0;
+  }
+  EXPECT_EQ(controller.phase(), sv::ApproachPhase::kGaveUp);
+  EXPECT_EQ(controller.retries(), 2);
+  // Two back-offs of backoff_distance at backoff_speed.
+  EXPECT_NEAR(backed_off * kDt * p.backoff_speed, 2.0 * p.backoff_distance, 2.0 * kDt * p.backoff_speed);
+}
+
+TEST(ApproachController, StandsStillWithoutASpoolThenBacksOff)
+{
+  sv::ApproachControllerParams p;
+  sv::ApproachController controller(p, sv::GeometryParams());
+  controller.update(boreAhead(1.0), sv::OdometryPose(), kDt);
+  sv::ApproachObservation none;
+  none.position = {std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
+  const sv::ApproachCommand wait = controller.update(none, sv::OdometryPose(), kDt);
+  EXPECT_EQ(wait.speed, 0.0);
+  EXPECT_EQ(wait.yaw_rate, 0.0);
+  for (double t = kDt; t <= p.lost_timeout + kDt; t += kDt)
+    controller.update(none, sv::OdometryPose(), kDt);
+  EXPECT_EQ(controller.phase(), sv::ApproachPhase::kBackOff);
+}
