@@ -161,6 +161,14 @@ struct TrackerParams
   /// robot speeding up, braking, turning): the process noise of the constant-velocity model
   double acceleration = 0.3;
   double axis_drift = 0.003;  ///< rad/sqrt(s), random walk of the spool axis seen from the camera
+  /// rad, 1 sigma of how level the spools lie relative to the camera (a shelf board's tilt, the
+  /// camera mount's pitch calibration): > 0 takes the axis's pitch as level_pitch with this
+  /// uncertainty instead of measuring it from the rim, whose pitch is biased by 0.1-0.5 deg
+  /// (docs/closed_loop.md); 0 = measure it from the rim
+  double level_pitch_sigma = 0.0;
+  /// the slope y/z a level spool's axis shows in the camera optical frame (the camera tilted
+  /// down by t: tan t); used when level_pitch_sigma > 0
+  double level_pitch = 0.0;
   /// Mahalanobis distance of a detection's position from the prediction beyond which it is
   /// refused (not fused, counted): 4 keeps 99.6% of true detections (3 degrees of freedom)
   double gate = 4.0;

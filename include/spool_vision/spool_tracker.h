@@ -161,6 +161,8 @@ private:
   /// (the robot turned faster than track_axis_drift allows) restarts the axis, unless the
   /// parallax, which the rim's bias does not share, holds it.
   void fuseAxis(const SpoolDetection& detection, const MeasurementNoise& noise);
+  /// With track_level_pitch_sigma > 0: the axis's pitch is the level one, with that variance.
+  void applyLevelPitch();
   /// One axis measurement: true when fused, false when the gate refused it.
   bool fuseSlopes(const Eigen::Vector2d& slopes, const Eigen::Matrix2d& covariance);
   /// Counts a refused detection; true when it and the one before agree with each other and are

@@ -199,6 +199,11 @@ std::vector<ParamSpec> buildSpecs()
              "process noise: white-noise acceleration of the bore's front centre relative to the camera"),
       number("track_axis_drift", FIELD(tracker.axis_drift), 0.0, 1.0, "rad/sqrt(s)",
              "process noise: random walk of the spool axis seen from the camera"),
+      number("track_level_pitch_sigma", FIELD(tracker.level_pitch_sigma), 0.0, 0.2, "rad",
+             "> 0: the spool axis's pitch is taken as level (track_level_pitch) with this 1 sigma instead of "
+             "the rim's measurement (spools lying on a level board, a level camera); 0 = measured from the rim"),
+      number("track_level_pitch", FIELD(tracker.level_pitch), -0.5, 0.5, "",
+             "slope y/z of a level spool's axis in the camera optical frame (tan of the camera's downward tilt)"),
       number("track_gate", FIELD(tracker.gate), 1.0, 100.0, "",
              "Mahalanobis distance from the prediction beyond which a detection is refused, not fused"),
       number("track_max_coast", FIELD(tracker.max_coast), 0, 1000, "frames",

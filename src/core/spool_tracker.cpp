@@ -318,7 +318,21 @@ void SpoolTracker::predict(double dt)
   x_ = f * x_;
   p_ = f * p_ * f.transpose() + noise;
   if (axis_known_)
+  {
     axis_p_ += params_.tracker.axis_drift * params_.tracker.axis_drift * dt * Eigen::Matrix2d::Identity();
+    applyLevelPitch();
+  }
+}
+
+void SpoolTracker::applyLevelPitch()
+{
+  const double sigma = params_.tracker.level_pitch_sigma;
+  if (!(sigma > 0.0))
+    return;
+  // A fact about the scene, not a measurement: it neither drifts nor averages down.
+  axis_.y() = params_.tracker.level_pitch;
+  axis_p_(1, 1) = sigma * sigma;
+  axis_p_(0, 1) = axis_p_(1, 0) = 0.0;
 }
 
 bool SpoolTracker::fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance)
@@ -402,7 +416,9 @@ void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNo
   const Eigen::Vector2d rim_slopes =
       rim ? Eigen::Vector2d(detection.axis[0] / detection.axis[2], detection.axis[1] / detection.axis[2])
           : Eigen::Vector2d::Zero();
-  const Eigen::Matrix2d rim_r = noise.axis * noise.axis * Eigen::Matrix2d::Identity();
+  Eigen::Matrix2d rim_r = noise.axis * noise.axis * Eigen::Matrix2d::Identity();
+  if (params_.tracker.level_pitch_sigma > 0.0)
+    rim_r(1, 1) = kUnobservedSlopeVariance;  // the level pitch stands in for the rim's
   if (!axis_known_)
   {
     // Started from the rim where it gave an axis, the parallax then fused into it.
@@ -412,6 +428,7 @@ void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNo
     axis_p_ = rim ? rim_r : parallax_r;
     const bool parallax_fused = rim && parallax && fuseSlopes(parallax_slopes, parallax_r);
     axis_cue_ = rim && !parallax_fused ? AxisCue::kRim : AxisCue::kBoreParallax;
+    applyLevelPitch();
     return;
   }
   // The parallax first: the rim's measurement is then gated against the sharper axis.
@@ -419,12 +436,16 @@ void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNo
   if (parallax_fused)
     axis_cue_ = AxisCue::kBoreParallax;
   if (!rim)
+  {
+    applyLevelPitch();
     return;
+  }
   if (fuseSlopes(rim_slopes, rim_r))
   {
     if (!parallax_fused)
       axis_cue_ = AxisCue::kRim;
     axis_refused_ = 0;
+    applyLevelPitch();
     return;
   }
   // An axis far off the track's (a fit that followed a label) is not fused; the position was.
@@ -438,6 +459,7 @@ void SpoolTracker::fuseAxis(const SpoolDetection& detection, const MeasurementNo
     confirmed_ = 0;
     axis_cue_ = AxisCue::kRim;
   }
+  applyLevelPitch();
 }
 
 bool SpoolTracker::fuseSlopes(const Eigen::Vector2d& slopes, const Eigen::Matrix2d& covariance)

@@ -171,6 +171,10 @@ TrialResult runTrial(const TrialConfig& config)
     record.truly_aligned = frame.truth.aligned;
     record.true_depth = frame.truth.distance;
     record.published_depth = observation.detected ? observation.position.z : std::numeric_limits<double>::quiet_NaN();
+    record.track_front_miss = tracked.track.front_miss;
+    record.track_back_miss = tracked.track.back_miss;
+    record.track_miss_sigma = tracked.track.miss_sigma;
+    pullerMisses(state, puller_y, scene.bore_length, record.true_front_miss, record.true_back_miss);
     result.trajectory.push_back(record);
     result.steps = step + 1;
     result.frames_detected += observation.detected ? 1 : 0;

@@ -84,7 +84,11 @@ nlohmann::ordered_json trajectoryJson(const sv::TrialResult& r)
                     {"aligned", s.aligned},
                     {"truly_aligned", s.truly_aligned},
                     {"true_depth", s.true_depth},
-                    {"published_depth", finiteOr(s.published_depth, -1.0)}});
+                    {"published_depth", finiteOr(s.published_depth, -1.0)},
+                    {"track_miss_mm",
+                     {1000.0 * finiteOr(s.track_front_miss, -0.001), 1000.0 * finiteOr(s.track_back_miss, -0.001),
+                      1000.0 * finiteOr(s.track_miss_sigma, -0.001)}},
+                    {"true_miss_mm", {1000.0 * s.true_front_miss, 1000.0 * s.true_back_miss}}});
   return path;
 }
 

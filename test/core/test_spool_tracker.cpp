@@ -579,3 +579,33 @@ TEST(SpoolTracker, TheFlangeAfterTwoRefusedCirclesIsFusedAgain)
     EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.01 * slowApproach(i).z) << i;
   }
 }
+
+TEST(SpoolTracker, ALevelSpoolsPitchStandsInForTheRimsBiasedOne)
+{
+  // Standing truly aligned at 55 cm while the rim reports the axis pitched 0.5 deg (its bias on
+  // cut flanges): measured from the rim aligned never comes; with track_level_pitch_sigma the
+  // pitch is the level one, its sigma that, and aligned comes. The yaw is still the rim's.
+  const cv::Point3d bore(0.0, 0.06, 0.55);
+  const double pitch = 0.5 * M_PI / 180.0;
+  const double yaw = 0.2 * M_PI / 180.0;
+  const cv::Vec3d biased = cv::normalize(cv::Vec3d(std::tan(yaw), std::tan(pitch), 1.0));
+  DetectorParams level;
+  level.tracker.level_pitch_sigma = 0.1 * M_PI / 180.0;
+  SpoolTracker from_rim;
+  SpoolTracker levelled(level);
+  bool rim_aligned = false;
+  bool level_aligned = false;
+  for (int i = 0; i < 40; ++i)
+  {
+    rim_aligned |= from_rim.update(detectionAt(bore, biased, nullptr), stamp(i), kCamera).aligned;
+    const TrackedSpool& t = levelled.update(detectionAt(bore, biased, nullptr), stamp(i), kCamera);
+    level_aligned |= t.aligned;
+    EXPECT_NEAR(t.axis[1] / t.axis[2], 0.0, 1e-12);
+    EXPECT_NEAR(t.axis[0] / t.axis[2], std::tan(yaw), 1e-3);
+  }
+  EXPECT_FALSE(rim_aligned);
+  EXPECT_TRUE(level_aligned);
+  // The level pitch's sigma bounds the axis's (it neither drifts nor averages down).
+  EXPECT_NEAR(levelled.update(detectionAt(bore, biased, nullptr), stamp(40), kCamera).axis_sigma,
+              level.tracker.level_pitch_sigma, 1e-9);
+}

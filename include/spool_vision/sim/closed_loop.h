@@ -70,6 +70,14 @@ struct TrialStep
   bool truly_aligned = false;    ///< the renderer's truth
   double true_depth = 0.0;       ///< m
   double published_depth = 0.0;  ///< m, NaN without a held spool
+  /// m, the tracker's puller misses at the bore's front and back and their 1 sigma
+  /// (TrackedSpool), what `aligned` is decided on; NaN without them (and for the oracle)
+  double track_front_miss = 0.0;
+  double track_back_miss = 0.0;
+  double track_miss_sigma = 0.0;
+  /// m, the true misses (pullerMisses())
+  double true_front_miss = 0.0;
+  double true_back_miss = 0.0;
 };
 
 struct TrialResult
