@@ -149,10 +149,21 @@ TrialResult runTrial(const TrialConfig& config)
     const double rod_top = puller_y - 0.5 * config.detector.geometry.puller_diameter;
     const double hole_bottom = (puller_y + 0.5 * scene.hole_diameter) / state.depth;
     scene.puller_rod_length = std::min(rod_length, 0.8 * rod_top / hole_bottom);
-    // The oracle needs no image unless one is kept.
-    const RenderedFrame frame = config.oracle && !config.keep_pictures
-                                    ? RenderedFrame{cv::Mat(), renderer.groundTruth(scene, robot.cameraPose())}
-                                    : renderer.render(scene, robot.cameraPose());
+    RenderedFrame frame;
+    try
+    {
+      // The oracle needs no image unless one is kept.
+      frame = config.oracle && !config.keep_pictures
+                  ? RenderedFrame{cv::Mat(), renderer.groundTruth(scene, robot.cameraPose())}
+                  : renderer.render(scene, robot.cameraPose());
+    }
+    catch (const std::invalid_argument&)
+    {
+      // The renderer's "impossible pose": turned so far that part of the front flange is behind
+      // the camera. No view of the spool is left to drive on.
+      result.outcome = TrialOutcome::kLost;
+      break;
+    }
     const double time = step * dt;
 
     TrackedFrame tracked;
