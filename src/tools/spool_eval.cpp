@@ -13,13 +13,12 @@
 #include <string>
 #include <vector>
 
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <opencv2/core.hpp>
 
 #include "cli_args.h"
+#include "python_script.h"
 #include "spool_vision/eval/evaluation.h"
 #include "spool_vision/io/config_io.h"
 
@@ -145,21 +144,18 @@ sv::FrameCounts countsAt(const Options& o, cv::Size size)
           std::max(1, c.distorted / divisor)};
 }
 
-// Draws the report's charts: scripts/plot_charts.py (matplotlib) run by Debian's python3 on
-// `charts` (charts.json). Throws std::runtime_error when it cannot run or fails (it says why on stderr).
+// Draws the report's charts: scripts/plot_charts.py (matplotlib) on `charts` (charts.json).
+// Throws std::runtime_error when it cannot run or fails (it says why on stderr).
 void drawCharts(const std::string& charts)
 {
-  std::vector<std::string> args = {SPOOL_VISION_PYTHON, SPOOL_VISION_SOURCE_DIR "/scripts/plot_charts.py", charts};
-  std::vector<char*> argv;
-  for (std::string& a : args)
-    argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  int status = 0;
-  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0 || waitpid(pid, &status, 0) != pid)
-    throw std::runtime_error("cannot run " + args[0] + " " + args[1]);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    throw std::runtime_error("charts not drawn (report.md and charts.json are written): " + args[1] + " failed");
+  try
+  {
+    sv::cli::runPackageScript("plot_charts.py", {charts});
+  }
+  catch (const std::runtime_error& e)
+  {
+    throw std::runtime_error(std::string("charts not drawn (report.md and charts.json are written): ") + e.what());
+  }
 }
 
 int run(int argc, char** argv)

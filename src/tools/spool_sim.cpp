@@ -18,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_args.h"
+#include "python_script.h"
 #include "spool_vision/io/config_io.h"
 #include "spool_vision/sim/closed_loop.h"
 
@@ -35,7 +36,8 @@ const char* const kUsage =
     "  --max-steps N  control periods before a timeout (default 300)\n"
     "  --config YAML  detector parameters (default: config/default.yaml's values)\n"
     "  --pictures DIR for each trial not inserted: its first, worst and last frame with the\n"
-    "                 overlay; every trial's trajectory in DIR/trials.jsonl\n"
+    "                 overlay; every trial's trajectory in DIR/trials.jsonl, drawn from above in\n"
+    "                 DIR/trajectories.png (scripts/plot_sim.py)\n"
     "  --jobs J       trials run at once (default 2)\n"
     "  --oracle       drive on the renderer's truth instead of the detector (proves the\n"
     "                 simulation and the controller: must insert every time)\n"
@@ -111,6 +113,9 @@ int run(int argc, char** argv)
   const int trials = line.positiveInteger("--trials", 100000, 10);
   const std::uint64_t first_seed = line.seed("--seed", 1);
   base.size = {line.positiveInteger("--width", 8192, 640), line.positiveInteger("--height", 8192, 480)};
+  if (base.size.width < 64 || base.size.height < 48)
+    throw sv::cli::UsageError("--width/--height: the camera mode must be at least 64x48, got " +
+                              std::to_string(base.size.width) + "x" + std::to_string(base.size.height));
   base.rate = line.positiveNumber("--rate", 10.0);
   base.max_steps = line.positiveInteger("--max-steps", 100000, 300);
   base.oracle = line.has("--oracle");
@@ -189,6 +194,8 @@ int run(int argc, char** argv)
       j["trajectory"] = trajectoryJson(r);
       file << j.dump() << "\n";
     }
+    file.close();
+    sv::cli::runPackageScript("plot_sim.py", {pictures + "/trials.jsonl"});
   }
   nlohmann::ordered_json summary;
   summary["trials"] = trials;

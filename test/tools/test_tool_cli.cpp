@@ -1,4 +1,4 @@
-// spool_calibrate, spool_render, spool_eval and scripts/plot_charts.py checked as a user runs
+// spool_calibrate, spool_render, spool_eval, spool_sim and scripts/plot_charts.py checked as a user runs
 // them: a process, its output, its exit code and the files it writes. The calibration images come
 // from the renderer, so the focal length they were taken with is known exactly.
 #include <algorithm>
@@ -9,6 +9,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -39,6 +41,11 @@ CliRun spoolRender(const std::string& args)
 CliRun spoolEval(const std::string& args)
 {
   return sv::test::runCommand(std::string(SPOOL_EVAL_BIN) + " " + args);
+}
+
+CliRun spoolSim(const std::string& args)
+{
+  return sv::test::runCommand(std::string(SPOOL_SIM_BIN) + " " + args);
 }
 
 CliRun plotCharts(const std::string& args)
@@ -380,5 +387,42 @@ TEST(SpoolEvalCli, BadOptionsExitTwoNamingTheOption)
     const CliRun run = spoolEval(args);
     EXPECT_EQ(run.exit_code, 2) << args;
     EXPECT_TRUE(has(run.errors, "spool_eval: " + message)) << args << "\n" << run.errors;
+  }
+}
+
+TEST(SpoolSimCli, OracleTrialsPrintALineEachASummaryAndThePictures)
+{
+  const fs::path dir = fs::temp_directory_path() / ("spool_sim_cli_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const CliRun run = spoolSim("--trials 3 --seed 5 --oracle --width 160 --height 120 --pictures " + dir.string());
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  ASSERT_EQ(run.lines.size(), 4u) << run.errors;
+  for (int i = 0; i < 3; ++i)
+  {
+    const auto trial = nlohmann::json::parse(run.lines[static_cast<std::size_t>(i)]);
+    EXPECT_EQ(trial["outcome"], "inserted");
+    EXPECT_LE(trial["back_miss_mm"].get<double>(), trial["tolerance_mm"].get<double>());
+  }
+  const auto summary = nlohmann::json::parse(run.lines[3])["summary"];
+  EXPECT_EQ(summary["trials"], 3);
+  EXPECT_EQ(summary["controller"], "oracle");
+  EXPECT_EQ(summary["outcomes"]["inserted"], 3);
+  std::ifstream trials(dir / "trials.jsonl");
+  std::string line;
+  int lines = 0;
+  while (std::getline(trials, line))
+    lines += nlohmann::json::parse(line)["trajectory"].size() > 10 ? 1 : 0;
+  EXPECT_EQ(lines, 3);
+  EXPECT_FALSE(cv::imread((dir / "trajectories.png").string()).empty());
+  fs::remove_all(dir);
+}
+
+TEST(SpoolSimCli, BadOptionsExitTwoNamingTheOption)
+{
+  for (const std::string bad : {"--trials 0", "--rate -1", "--width 10 --height 10", "--frobnicate 1"})
+  {
+    const CliRun run = spoolSim(bad);
+    EXPECT_EQ(run.exit_code, 2) << bad << ": " << run.errors;
+    EXPECT_TRUE(has(run.errors, bad.substr(0, bad.find(' ')))) << bad << ": " << run.errors;
   }
 }
