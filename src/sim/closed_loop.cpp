@@ -83,10 +83,16 @@ TrialStart drawTrialStart(std::uint64_t seed)
 {
   cv::RNG rng(mix(seed, 1));
   TrialStart start;
-  start.robot.depth = rng.uniform(0.9, 1.2);
-  start.robot.x = rng.uniform(-0.15, 0.15);
+  // In the lane in front of the slot (square to the shelf), then the spool's turn: the renderer's
+  // world is the spool's, so the robot's place turns about the bore the other way.
+  const double lane_depth = rng.uniform(0.9, 1.2);
+  const double lane_x = rng.uniform(-0.15, 0.15);
+  const double turn = rng.uniform(-5.0, 5.0) * kDeg;
+  start.robot.x = lane_x * std::cos(turn) + lane_depth * std::sin(turn);
+  start.robot.depth = lane_depth * std::cos(turn) - lane_x * std::sin(turn);
+  // Aimed roughly at the slot: the heading off the bearing of the bore.
   const double bearing = std::atan2(-start.robot.x, start.robot.depth);
-  start.robot.heading = bearing + rng.uniform(-10.0, 10.0) * kDeg + rng.uniform(-5.0, 5.0) * kDeg;
+  start.robot.heading = bearing + rng.uniform(-10.0, 10.0) * kDeg;
   start.robot.lift = GeometryParams{}.puller_offset_y + rng.uniform(-0.02, 0.02);
   start.actuation.speed_scale = 1.0 + rng.uniform(-0.03, 0.03);
   start.actuation.yaw_rate_scale = 1.0 + rng.uniform(-0.03, 0.03);

@@ -37,9 +37,10 @@ struct TrialStart
   std::uint64_t scene_seed = 0;  ///< randomHardScene's seed: the shelf, lamps, faces, clutter
 };
 
-/// A start 0.9-1.2 m from the face, up to 15 cm beside the bore axis, the heading up to 10 deg off
-/// the bearing of the bore plus up to 5 deg of spool turn (the renderer turns the shelf with the
-/// spool), the lift up to 2 cm off the bore's height, speed and yaw-rate scale errors of up to 3%
+/// A start 0.9-1.2 m in front of the slot and up to 15 cm beside it, the spool's axis turned up to
+/// 5 deg from the lane (the renderer turns the shelf with the spool: the robot's place turns about
+/// the bore instead), the heading up to 10 deg off the bearing of the bore, the lift up to 2 cm off
+/// the bore's height, speed and yaw-rate scale errors of up to 3%
 /// and 2% noise per period. Deterministic in `seed`.
 TrialStart drawTrialStart(std::uint64_t seed);
 
