@@ -13,6 +13,7 @@ PACKAGES=(
   libimage-geometry-dev libtf2-ros-dev libgeometry-msgs-dev libvisualization-msgs-dev
   libdiagnostic-updater-dev libdynamic-reconfigure-config-init-mutex-dev
   libnodeletlib-dev pluginlib-dev librostest-dev libstd-msgs-dev
+  libactionlib-dev libactionlib-msgs-dev libnav-msgs-dev python3-actionlib python3-actionlib-msgs python3-nav-msgs
   python3-rostest python3-rosbag python3-rostopic python3-roslaunch python3-sensor-msgs
   python3-dynamic-reconfigure python3-cv-bridge python3-numpy
   python3-opencv python3-yaml python3-matplotlib python3-std-srvs python3-rosgraph-msgs python3-diagnostic-msgs ros-image-view

@@ -128,6 +128,17 @@ void ApproachController::lineErrors(const OdometryPose& odometry, double& latera
   floorErrors(seen, geometry_, lateral, heading, depth_to_face);
 }
 
+bool ApproachController::errors(const OdometryPose& odometry, double& lateral, double& heading,
+                                double& depth_to_go) const
+{
+  if (!line_)
+    return false;
+  double to_face = 0.0;
+  lineErrors(odometry, lateral, heading, to_face);
+  depth_to_go = to_face - params_.standoff_depth;
+  return true;
+}
+
 ApproachCommand ApproachController::steer(const ApproachObservation& observation, const OdometryPose& odometry,
                                           double speed) const
 {

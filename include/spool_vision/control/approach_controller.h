@@ -106,6 +106,10 @@ public:
   {
     return phase_;
   }
+  /// The puller's lateral and heading errors against the bore axis as the controller holds it
+  /// (floorErrors() of its estimate, seen from `odometry`) and the depth still to go to the
+  /// standoff (m, rad, m). False (and nothing written) before a spool was held.
+  bool errors(const OdometryPose& odometry, double& lateral, double& heading, double& depth_to_go) const;
   int retries() const
   {
     return retries_;

@@ -1,0 +1,114 @@
+#!/usr/bin/python3
+"""rostest: spool_approach_controller driven through its topics. The test plays the detector
+(SpoolPose at 10 Hz) and the robot (odom), sends an ApproachAndInsert goal and checks the
+commands: a bore ahead and to the left turns the robot left (REP 103: angular.z > 0) and drives it
+forward; a bore lower than the puller lowers the lift; `aligned` while coasting is never acted on;
+`aligned` on a fused frame publishes `insert` and ends the goal "inserted". A bad parameter
+stops the node at start-up naming the key."""
+import math
+import subprocess
+import threading
+import unittest
+
+import actionlib
+import roslib.packages
+import rospy
+import rostest
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from std_msgs.msg import Empty, Float64
+
+from spool_vision.msg import ApproachAndInsertAction, ApproachAndInsertGoal, SpoolPose
+
+TIMEOUT = 30.0
+
+
+class ApproachControllerNode(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("approach_controller_test")
+        cls.poses = rospy.Publisher("spool_pose", SpoolPose, queue_size=10)
+        cls.odom = rospy.Publisher("odom", Odometry, queue_size=10)
+        cls.lock = threading.Lock()
+        cls.twists, cls.lifts, cls.inserts = [], [], []
+        rospy.Subscriber("cmd_vel", Twist, lambda m: cls.record(cls.twists, m))
+        rospy.Subscriber("lift_velocity", Float64, lambda m: cls.record(cls.lifts, m))
+        rospy.Subscriber("insert", Empty, lambda m: cls.record(cls.inserts, m))
+        cls.client = actionlib.SimpleActionClient("approach_and_insert", ApproachAndInsertAction)
+        assert cls.client.wait_for_server(rospy.Duration(TIMEOUT)), "no approach_and_insert server"
+
+    @classmethod
+    def record(cls, store, message):
+        with cls.lock:
+            store.append(message)
+
+    def play(self, frames, x=0.0, y=0.06, z=1.0, aligned=False, state=SpoolPose.TRACK_TRACKING):
+        """`frames` poses 0.1 s apart of a bore at (x, y, z), axis along the optical axis, each with
+        an odom message at the same stamp (the robot standing still)."""
+        for _ in range(frames):
+            stamp = rospy.Time.now()
+            pose = SpoolPose()
+            pose.header.stamp = stamp
+            pose.header.frame_id = "camera_optical_frame"
+            pose.detected = True
+            pose.hole_detected = True
+            pose.aligned = aligned
+            pose.track_state = state
+            pose.position.x, pose.position.y, pose.position.z = x, y, z
+            pose.axis.x, pose.axis.y, pose.axis.z = 0.0, 0.0, 1.0
+            odom = Odometry()
+            odom.header.stamp = stamp
+            odom.pose.pose.orientation.w = 1.0
+            self.odom.publish(odom)
+            self.poses.publish(pose)
+            rospy.sleep(0.1)
+
+    def wait_for(self, store, count):
+        deadline = rospy.Time.now() + rospy.Duration(TIMEOUT)
+        while rospy.Time.now() < deadline:
+            with self.lock:
+                if len(store) >= count:
+                    return list(store)
+            rospy.sleep(0.05)
+        self.fail("only %d messages" % len(store))
+
+    def test_approach_then_insert(self):
+        while self.poses.get_num_connections() == 0 or self.odom.get_num_connections() == 0:
+            rospy.sleep(0.1)
+        self.client.send_goal(ApproachAndInsertGoal())
+        rospy.sleep(0.5)
+        # The bore 1 m ahead, 5 cm left and 1 cm lower than the puller.
+        self.play(5, x=-0.05, y=0.07)
+        twists = self.wait_for(self.twists, 5)
+        self.assertGreater(twists[-1].linear.x, 0.0)
+        self.assertGreater(twists[-1].angular.z, 0.0, "the bore is left: turn left")
+        lifts = self.wait_for(self.lifts, 5)
+        self.assertLess(lifts[-1].data, 0.0, "the bore is lower: lift down")
+        self.assertEqual(self.client.get_state(), actionlib.GoalStatus.ACTIVE)
+        # Aligned on coasting frames (the tracker's prediction) is not acted on.
+        self.play(3, z=0.56, aligned=True, state=SpoolPose.TRACK_COASTING)
+        rospy.sleep(0.3)
+        with self.lock:
+            self.assertEqual(len(self.inserts), 0)
+        # Aligned on a fused frame: the push and the goal's end.
+        self.play(1, z=0.56, aligned=True)
+        self.wait_for(self.inserts, 1)
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(TIMEOUT)))
+        self.assertEqual(self.client.get_state(), actionlib.GoalStatus.SUCCEEDED)
+        self.assertEqual(self.client.get_result().outcome, "inserted")
+        self.assertTrue(math.isfinite(self.client.get_result().time))
+
+    def test_a_bad_parameter_stops_the_node_naming_it(self):
+        binary = roslib.packages.find_node("spool_vision", "spool_approach_controller")[0]
+        try:
+            r = subprocess.run([binary, "__name:=bad_lookahead", "_lookahead:=0.0"], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, timeout=TIMEOUT, universal_newlines=True)
+        except subprocess.TimeoutExpired:
+            self.fail("the node kept running with lookahead 0")
+        self.assertEqual(r.returncode, 1, r.stdout)
+        self.assertIn("lookahead", r.stdout)
+        self.assertIn("config/approach_controller.yaml", r.stdout)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("spool_vision", "approach_controller", ApproachControllerNode)
