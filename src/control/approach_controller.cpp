@@ -58,6 +58,10 @@ ApproachController::ApproachController(const ApproachControllerParams& params, c
   if (params.min_speed > params.max_speed)
     throw std::invalid_argument("approach controller: min_speed must not exceed max_speed (" +
                                 std::to_string(params.min_speed) + " > " + std::to_string(params.max_speed) + ")");
+  requirePositive(params.max_line_jump, "max_line_jump");
+  if (params.max_disagreements < 1)
+    throw std::invalid_argument("approach controller: max_disagreements must be >= 1, got " +
+                                std::to_string(params.max_disagreements));
   if (params.max_retries < 0)
     throw std::invalid_argument("approach controller: max_retries must be >= 0, got " +
                                 std::to_string(params.max_retries));
@@ -90,7 +94,7 @@ void ApproachController::floorErrors(const ApproachObservation& observation, con
   heading = std::atan2(ax, az);
 }
 
-void ApproachController::observeLine(const ApproachObservation& observation, const OdometryPose& odometry)
+bool ApproachController::observeLine(const ApproachObservation& observation, const OdometryPose& odometry)
 {
   const double c = std::cos(odometry.heading);
   const double s = std::sin(odometry.heading);
@@ -105,12 +109,15 @@ void ApproachController::observeLine(const ApproachObservation& observation, con
   if (!line_)
   {
     line_ = seen;
-    return;
+    return true;
   }
+  if (std::hypot(seen.x - line_->x, seen.z - line_->z) > params_.max_line_jump)
+    return false;
   const double m = params_.line_memory;
   line_->x = m * line_->x + (1.0 - m) * seen.x;
   line_->z = m * line_->z + (1.0 - m) * seen.z;
   line_->heading = m * line_->heading + (1.0 - m) * seen.heading;
+  return true;
 }
 
 void ApproachController::lineErrors(const OdometryPose& odometry, double& lateral, double& heading,
@@ -183,7 +190,7 @@ ApproachCommand ApproachController::update(const ApproachObservation& observatio
   const bool held = observation.detected && std::isfinite(observation.position.z);
   unseen_time_ = held ? 0.0 : unseen_time_ + dt;
   if (held && !observation.coasting)
-    observeLine(observation, odometry);
+    disagreements_ = observeLine(observation, odometry) ? 0 : disagreements_ + 1;
   ApproachCommand command;
   switch (phase_)
   {
@@ -205,15 +212,19 @@ ApproachCommand ApproachController::update(const ApproachObservation& observatio
     case ApproachPhase::kHold:
       break;
   }
-  if (held && observation.aligned && !observation.coasting)
+  if (held && observation.aligned && !observation.coasting && disagreements_ == 0)
   {
     phase_ = ApproachPhase::kInsert;
     command.insert = true;
     return command;
   }
   const bool timed_out = phase_ == ApproachPhase::kHold && phase_time_ > params_.hold_timeout;
-  if (timed_out || unseen_time_ > params_.lost_timeout)
+  const bool disagreeing = disagreements_ >= params_.max_disagreements;
+  if (timed_out || disagreeing || unseen_time_ > params_.lost_timeout)
   {
+    if (disagreeing)
+      line_.reset();  // the new run-up starts the estimate from the poses then
+    disagreements_ = 0;
     phase_ = ApproachPhase::kBackOff;
     phase_time_ = 0.0;
     reversed_ = 0.0;

@@ -45,6 +45,8 @@ sv::ApproachControllerParams readParams(const ros::NodeHandle& pnh, sv::Geometry
   pnh.param("heading_gain", p.heading_gain, p.heading_gain);
   pnh.param("max_yaw_rate", p.max_yaw_rate, p.max_yaw_rate);
   pnh.param("line_memory", p.line_memory, p.line_memory);
+  pnh.param("max_line_jump", p.max_line_jump, p.max_line_jump);
+  pnh.param("max_disagreements", p.max_disagreements, p.max_disagreements);
   pnh.param("lift_gain", p.lift_gain, p.lift_gain);
   pnh.param("max_lift_rate", p.max_lift_rate, p.max_lift_rate);
   pnh.param("hold_timeout", p.hold_timeout, p.hold_timeout);

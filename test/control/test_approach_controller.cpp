@@ -141,3 +141,22 @@ TEST(ApproachController, StandsStillWithoutASpoolThenBacksOff)
     controller.update(none, sv::OdometryPose(), kDt);
   EXPECT_EQ(controller.phase(), sv::ApproachPhase::kBackOff);
 }
+
+TEST(ApproachController, PosesThatDisagreeWithTheRobotsMotionAreNotTrusted)
+{
+  // Standing still (odometry unchanged), the bore 80 cm ahead; then poses putting it 10 cm
+  // further (a circle too big): never inserted on, and after max_disagreements in a row the
+  // approach stops and backs off.
+  sv::ApproachControllerParams p;
+  sv::ApproachController controller{p, sv::GeometryParams()};
+  for (int i = 0; i < 3; ++i)
+    controller.update(boreAhead(0.8), sv::OdometryPose(), kDt);
+  sv::ApproachObservation further = boreAhead(0.9);
+  further.aligned = true;
+  for (int i = 0; i < p.max_disagreements; ++i)
+  {
+    EXPECT_EQ(controller.phase(), sv::ApproachPhase::kApproach) << i;
+    EXPECT_FALSE(controller.update(further, sv::OdometryPose(), kDt).insert) << i;
+  }
+  EXPECT_EQ(controller.phase(), sv::ApproachPhase::kBackOff);
+}

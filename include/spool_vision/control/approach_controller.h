@@ -72,6 +72,12 @@ struct ApproachControllerParams
   /// Weight kept by the bore axis's estimate in the odometry frame per new observation (the
   /// rest goes to the observation; odometry's drift is forgotten at this rate)
   double line_memory = 0.8;
+  /// m: a pose that puts the bore's front centre this far from where the estimate holds it (in
+  /// the odometry frame) disagrees with the robot's own motion (a circle twice too big on a
+  /// glossy face halves its depth change per metre driven) and is not fused
+  double max_line_jump = 0.03;
+  /// disagreeing poses in a row that stop the approach: back off and start the estimate again
+  int max_disagreements = 3;
   double lift_gain = 2.0;         ///< 1/s, lift rate per m of height error
   double max_lift_rate = 0.05;    ///< m/s
   double hold_timeout = 3.0;      ///< s in the window without `aligned` before backing off
@@ -129,7 +135,8 @@ private:
     double z = 0.0;
     double heading = 0.0;
   };
-  void observeLine(const ApproachObservation& observation, const OdometryPose& odometry);
+  /// False when the pose disagrees with the estimate (not fused).
+  bool observeLine(const ApproachObservation& observation, const OdometryPose& odometry);
   /// floorErrors() of the estimated line seen from `odometry`.
   void lineErrors(const OdometryPose& odometry, double& lateral, double& heading, double& depth_to_face) const;
   ApproachCommand approach(const ApproachObservation& observation, const OdometryPose& odometry);
@@ -143,6 +150,7 @@ private:
   double unseen_time_ = 0.0;  ///< s since a spool was last held
   double reversed_ = 0.0;     ///< m reversed in this back-off
   int retries_ = 0;
+  int disagreements_ = 0;  ///< poses in a row that disagreed with the estimate
 };
 
 }  // namespace spool_vision
