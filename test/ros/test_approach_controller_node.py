@@ -3,7 +3,8 @@
 (SpoolPose at 10 Hz) and the robot (odom), sends an ApproachAndInsert goal and checks the
 commands: a bore ahead and to the left turns the robot left (REP 103: angular.z > 0) and drives it
 forward; a bore lower than the puller lowers the lift; `aligned` while coasting is never acted on;
-`aligned` on a fused frame publishes `insert` and ends the goal "inserted". A bad parameter
+nor is a pose that disagrees with the odometry; `aligned` on a fused frame publishes `insert` and
+ends the goal "inserted". A bad parameter
 stops the node at start-up naming the key."""
 import math
 import subprocess
@@ -31,9 +32,9 @@ class ApproachControllerNode(unittest.TestCase):
         cls.odom = rospy.Publisher("odom", Odometry, queue_size=10)
         cls.lock = threading.Lock()
         cls.twists, cls.lifts, cls.inserts = [], [], []
-        rospy.Subscriber("cmd_vel", Twist, lambda m: cls.record(cls.twists, m))
-        rospy.Subscriber("lift_velocity", Float64, lambda m: cls.record(cls.lifts, m))
-        rospy.Subscriber("insert", Empty, lambda m: cls.record(cls.inserts, m))
+        cls.subscribers = [rospy.Subscriber("cmd_vel", Twist, lambda m: cls.record(cls.twists, m)),
+                           rospy.Subscriber("lift_velocity", Float64, lambda m: cls.record(cls.lifts, m)),
+                           rospy.Subscriber("insert", Empty, lambda m: cls.record(cls.inserts, m))]
         cls.client = actionlib.SimpleActionClient("approach_and_insert", ApproachAndInsertAction)
         assert cls.client.wait_for_server(rospy.Duration(TIMEOUT)), "no approach_and_insert server"
 
@@ -42,9 +43,11 @@ class ApproachControllerNode(unittest.TestCase):
         with cls.lock:
             store.append(message)
 
-    def play(self, frames, x=0.0, y=0.06, z=1.0, aligned=False, state=SpoolPose.TRACK_TRACKING):
+    def play(self, frames, x=0.0, y=0.06, z=1.0, aligned=False, state=SpoolPose.TRACK_TRACKING, forward=0.0,
+             left=0.0):
         """`frames` poses 0.1 s apart of a bore at (x, y, z), axis along the optical axis, each with
-        an odom message at the same stamp (the robot standing still)."""
+        an odom message at the same stamp: the robot `forward` and `left` (m) of where it started,
+        heading unchanged (the controller checks the poses against that motion)."""
         for _ in range(frames):
             stamp = rospy.Time.now()
             pose = SpoolPose()
@@ -58,6 +61,7 @@ class ApproachControllerNode(unittest.TestCase):
             pose.axis.x, pose.axis.y, pose.axis.z = 0.0, 0.0, 1.0
             odom = Odometry()
             odom.header.stamp = stamp
+            odom.pose.pose.position.x, odom.pose.pose.position.y = forward, left
             odom.pose.pose.orientation.w = 1.0
             self.odom.publish(odom)
             self.poses.publish(pose)
@@ -72,11 +76,21 @@ class ApproachControllerNode(unittest.TestCase):
             rospy.sleep(0.05)
         self.fail("only %d messages" % len(store))
 
+    def until(self, condition, what):
+        deadline = rospy.Time.now() + rospy.Duration(TIMEOUT)
+        while not condition():
+            if rospy.Time.now() > deadline:
+                self.fail("timed out waiting for " + what)
+            rospy.sleep(0.05)
+
     def test_approach_then_insert(self):
-        while self.poses.get_num_connections() == 0 or self.odom.get_num_connections() == 0:
-            rospy.sleep(0.1)
+        # Every connection made and the goal accepted before the first pose (a loaded machine
+        # takes its time over each).
+        self.until(lambda: self.poses.get_num_connections() > 0 and self.odom.get_num_connections() > 0,
+                   "the node's subscriptions")
+        self.until(lambda: all(s.get_num_connections() > 0 for s in self.subscribers), "the node's publishers")
         self.client.send_goal(ApproachAndInsertGoal())
-        rospy.sleep(0.5)
+        self.until(lambda: self.client.get_state() == actionlib.GoalStatus.ACTIVE, "the goal to be active")
         # The bore 1 m ahead, 5 cm left and 1 cm lower than the puller.
         self.play(5, x=-0.05, y=0.07)
         twists = self.wait_for(self.twists, 5)
@@ -85,13 +99,21 @@ class ApproachControllerNode(unittest.TestCase):
         lifts = self.wait_for(self.lifts, 5)
         self.assertLess(lifts[-1].data, 0.0, "the bore is lower: lift down")
         self.assertEqual(self.client.get_state(), actionlib.GoalStatus.ACTIVE)
-        # Aligned on coasting frames (the tracker's prediction) is not acted on.
-        self.play(3, z=0.56, aligned=True, state=SpoolPose.TRACK_COASTING)
+        # The robot has driven 44 cm on and 5 cm left: the same bore now at the standoff, straight
+        # ahead. Aligned on coasting frames (the tracker's prediction) is not acted on.
+        at_standoff = dict(z=0.56, aligned=True, forward=0.44, left=0.05)
+        self.play(3, state=SpoolPose.TRACK_COASTING, **at_standoff)
+        rospy.sleep(0.3)
+        with self.lock:
+            self.assertEqual(len(self.inserts), 0)
+        # A bore 44 cm nearer while the odometry says the robot has not moved (a circle too big):
+        # not inserted on.
+        self.play(1, z=0.56, aligned=True)
         rospy.sleep(0.3)
         with self.lock:
             self.assertEqual(len(self.inserts), 0)
         # Aligned on a fused frame: the push and the goal's end.
-        self.play(1, z=0.56, aligned=True)
+        self.play(1, **at_standoff)
         self.wait_for(self.inserts, 1)
         self.assertTrue(self.client.wait_for_result(rospy.Duration(TIMEOUT)))
         self.assertEqual(self.client.get_state(), actionlib.GoalStatus.SUCCEEDED)
