@@ -6,10 +6,14 @@
 // each SpoolPose (`spool_pose`, best with ~track:=true) gives one command: `cmd_vel`
 // (geometry_msgs/Twist, REP 103: linear.x forward, angular.z positive = left), `lift_velocity`
 // (std_msgs/Float64, m/s, positive up) and, when `aligned` comes, `insert` (std_msgs/Empty: push the
-// puller straight in). The robot's `odom` (nav_msgs/Odometry) holds the bore axis between frames;
-// without one the node dead-reckons its own commands (warned once).
+// puller straight in). The robot's `odom` (nav_msgs/Odometry) holds the bore axis between frames:
+// each pose is paired with the odometry of its own stamp (interpolated, as a TF lookup at the
+// image's stamp would be), and a pose newer than every odometry waits for the next one, so the
+// order in which the two topics arrive does not change the command. Without odom the node
+// dead-reckons its own commands (warned once).
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -83,6 +87,7 @@ private:
     controller_.emplace(params_, geometry_);
     last_stamp_.reset();
     start_stamp_.reset();
+    pending_.reset();
     dead_reckoning_ = sv::OdometryPose();
   }
 
@@ -96,28 +101,79 @@ private:
   {
     // ROS's odom (x forward, y left, yaw counter-clockwise) as the controller's floor frame
     // (z forward, x right, heading clockwise): only the motion between frames matters.
-    odometry_ = sv::OdometryPose{-odom.pose.pose.position.y, odom.pose.pose.position.x,
-                                 -tf2::getYaw(odom.pose.pose.orientation)};
-    odometry_stamp_ = odom.header.stamp;
+    const ros::Time stamp = odom.header.stamp;
+    if (!odometry_.empty() && stamp < odometry_.back().first)
+      odometry_.clear();  // time went back (a bag looped, a simulation restarted)
+    odometry_.emplace_back(stamp, sv::OdometryPose{-odom.pose.pose.position.y, odom.pose.pose.position.x,
+                                                   -tf2::getYaw(odom.pose.pose.orientation)});
+    while (odometry_.size() > 2 && (stamp - odometry_.front().first).toSec() > kOdometryHistory)
+      odometry_.pop_front();
+    if (pending_ && stamp >= pending_->header.stamp)
+      processPending();
   }
 
   void onPose(const spool_vision::SpoolPose& pose)
   {
     if (!server_.isActive() || !controller_)
       return;
+    if (pending_)
+      processPending();  // its odometry never came: it goes with the newest there is
+    // A pose newer than every odometry (the odometry of its stamp still on its way) waits for it.
+    if (!odometry_.empty() && pose.header.stamp > odometry_.back().first &&
+        (pose.header.stamp - odometry_.back().first).toSec() < kOdometryMaxAge)
+    {
+      pending_ = pose;
+      return;
+    }
+    process(pose);
+  }
+
+  void processPending()
+  {
+    const spool_vision::SpoolPose pose = *pending_;
+    pending_.reset();
+    if (server_.isActive() && controller_)
+      process(pose);
+  }
+
+  /// The odometry at `stamp`, interpolated between the two around it (the nearest outside them);
+  /// false when none is within kOdometryMaxAge.
+  bool odometryAt(const ros::Time& stamp, sv::OdometryPose& pose) const
+  {
+    if (odometry_.empty())
+      return false;
+    auto after = std::lower_bound(odometry_.begin(), odometry_.end(), stamp,
+                                  [](const auto& sample, const ros::Time& t) { return sample.first < t; });
+    if (after == odometry_.begin() || after == odometry_.end())
+    {
+      const auto& nearest = after == odometry_.end() ? odometry_.back() : odometry_.front();
+      pose = nearest.second;
+      return std::abs((stamp - nearest.first).toSec()) < kOdometryMaxAge;
+    }
+    const auto& before = *std::prev(after);
+    const double span = (after->first - before.first).toSec();
+    const double w = span > 0.0 ? (stamp - before.first).toSec() / span : 1.0;
+    pose.x = before.second.x + w * (after->second.x - before.second.x);
+    pose.z = before.second.z + w * (after->second.z - before.second.z);
+    pose.heading = before.second.heading + w * (after->second.heading - before.second.heading);
+    return true;
+  }
+
+  void process(const spool_vision::SpoolPose& pose)
+  {
     const ros::Time stamp = pose.header.stamp;
     if (!start_stamp_)
       start_stamp_ = stamp;
     // A stamp that does not advance (a bag looped, a repeated message) gets a nominal period.
     const double dt = last_stamp_ && stamp > *last_stamp_ ? std::min((stamp - *last_stamp_).toSec(), 1.0) : 0.1;
     last_stamp_ = stamp;
-    const bool fresh_odometry = !odometry_stamp_.isZero() && std::abs((stamp - odometry_stamp_).toSec()) < 0.5;
-    if (!fresh_odometry)
+    sv::OdometryPose odometry;
+    if (!odometryAt(stamp, odometry))
     {
       ROS_WARN_ONCE("spool_approach_controller: no odom within 0.5 s of the poses; dead-reckoning the commands");
       advanceDeadReckoning(dt);
+      odometry = dead_reckoning_;
     }
-    const sv::OdometryPose& odometry = fresh_odometry ? odometry_ : dead_reckoning_;
 
     sv::ApproachObservation o;
     o.detected = pose.detected;
@@ -190,8 +246,11 @@ private:
   std::optional<sv::ApproachController> controller_;
   ros::Publisher cmd_vel_, lift_, insert_;
   ros::Subscriber pose_sub_, odom_sub_;
-  sv::OdometryPose odometry_;
-  ros::Time odometry_stamp_;
+  /// s: odometry kept for pairing; and the largest gap between a pose and its odometry
+  static constexpr double kOdometryHistory = 2.0;
+  static constexpr double kOdometryMaxAge = 0.5;
+  std::deque<std::pair<ros::Time, sv::OdometryPose>> odometry_;
+  std::optional<spool_vision::SpoolPose> pending_;
   sv::OdometryPose dead_reckoning_;
   sv::ApproachCommand last_command_;
   std::optional<ros::Time> last_stamp_, start_stamp_;

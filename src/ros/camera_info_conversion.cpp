@@ -149,6 +149,21 @@ bool isRectifiedStream(const std::string& setting, const std::string& image_topi
   return name.rfind("image_rect", 0) == 0;
 }
 
+sensor_msgs::CameraInfo infoFromCamera(const CameraIntrinsics& camera)
+{
+  namespace models = sensor_msgs::distortion_models;
+  sensor_msgs::CameraInfo info;
+  info.width = static_cast<std::uint32_t>(camera.width);
+  info.height = static_cast<std::uint32_t>(camera.height);
+  info.distortion_model = camera.distortion.size() == 8 ? models::RATIONAL_POLYNOMIAL : models::PLUMB_BOB;
+  info.D = camera.distortion;
+  info.D.resize(std::max<std::size_t>(info.D.size(), 5), 0.0);
+  info.K = {camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0};
+  info.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+  info.P = {camera.fx, 0.0, camera.cx, 0.0, 0.0, camera.fy, camera.cy, 0.0, 0.0, 0.0, 1.0, 0.0};
+  return info;
+}
+
 bool sameCalibration(const sensor_msgs::CameraInfo& a, const sensor_msgs::CameraInfo& b)
 {
   return a.width == b.width && a.height == b.height && a.distortion_model == b.distortion_model && a.D == b.D &&

@@ -51,6 +51,12 @@ CameraInfoConversion cameraFromInfo(const sensor_msgs::CameraInfo& info, int ima
 /// ParamError on another value.
 bool isRectifiedStream(const std::string& setting, const std::string& image_topic);
 
+/// spool_vision::CameraIntrinsics -> sensor_msgs/CameraInfo of the raw image (the inverse of
+/// cameraFromInfo for a raw stream): K, D as plumb_bob (4 coefficients padded to 5; none: five
+/// zeros) or rational_polynomial (8), R identity, P = [K | 0]; no binning, no ROI. The header is
+/// left to the caller.
+sensor_msgs::CameraInfo infoFromCamera(const CameraIntrinsics& camera);
+
 /// True when `a` and `b` describe the same camera (every field but the header).
 bool sameCalibration(const sensor_msgs::CameraInfo& a, const sensor_msgs::CameraInfo& b);
 

@@ -39,6 +39,15 @@ void setMotionBlur(const ForkliftState& robot, SceneParams& scene)
   scene.motion_blur_angle = 0.0;
 }
 
+CameraIntrinsics approachCamera(cv::Size size)
+{
+  if (size.width < 64 || size.height < 48)
+    throw std::invalid_argument("spool_sim: image size must be at least 64x48");
+  CameraIntrinsics camera = setCamera(FrameSet::kApproachHard, size);
+  camera.distortion = c270Distortion();
+  return camera;
+}
+
 ApproachObservation observeTruth(const GroundTruth& truth)
 {
   ApproachObservation o;
@@ -113,60 +122,89 @@ void pullerMisses(const ForkliftState& robot, double puller_offset_y, double bor
   back = std::hypot(robot.x + (robot.depth + bore_length) * slope, vertical);
 }
 
+ApproachWorld::ApproachWorld(std::uint64_t seed, cv::Size size, const GeometryParams& geometry,
+                             const ForkliftLimits& limits)
+  : seed_(seed)
+  , start_(drawTrialStart(seed))
+  , geometry_(geometry)
+  , camera_(approachCamera(size))
+  , renderer_(camera_)
+  , scene_(randomHardScene(SceneKind::kSpool, start_.scene_seed))
+  , rod_length_(scene_.puller_rod_length)
+  , robot_(start_.robot, limits, start_.actuation, mix(seed, 3))
+{
+}
+
+double ApproachWorld::tolerance() const
+{
+  return 0.5 * (scene_.hole_diameter - geometry_.puller_diameter);
+}
+
+RenderedFrame ApproachWorld::view(int step, bool draw)
+{
+  const ForkliftState& state = robot_.state();
+  scene_.seed = mix(seed_, 100 + static_cast<std::uint64_t>(step));
+  setMotionBlur(state, scene_);
+  // The rod's tip stays below the hole's bottom rim in the image, as in approach_hard.
+  const double rod_top = geometry_.puller_offset_y - 0.5 * geometry_.puller_diameter;
+  const double hole_bottom = (geometry_.puller_offset_y + 0.5 * scene_.hole_diameter) / state.depth;
+  scene_.puller_rod_length = std::min(rod_length_, 0.8 * rod_top / hole_bottom);
+  return draw ? renderer_.render(scene_, robot_.cameraPose())
+              : RenderedFrame{cv::Mat(), renderer_.groundTruth(scene_, robot_.cameraPose())};
+}
+
+bool ApproachWorld::droveIntoFace() const
+{
+  return robot_.state().depth < kMinDepth;
+}
+
+TrialOutcome ApproachWorld::judgePush(double& front_miss, double& back_miss) const
+{
+  const ForkliftState& state = robot_.state();
+  pullerMisses(state, geometry_.puller_offset_y, scene_.bore_length, front_miss, back_miss);
+  const double at_face = std::abs(state.x + state.depth * std::tan(state.heading));
+  if (at_face > 0.5 * scene_.flange_diameter)
+    return TrialOutcome::kWrongSpool;
+  return std::max(front_miss, back_miss) <= tolerance() ? TrialOutcome::kInserted : TrialOutcome::kCollision;
+}
+
 TrialResult runTrial(const TrialConfig& config)
 {
-  if (config.size.width < 64 || config.size.height < 48)
-    throw std::invalid_argument("spool_sim: image size must be at least 64x48");
   if (!(config.rate > 0.0) || !std::isfinite(config.rate))
     throw std::invalid_argument("spool_sim: rate must be a finite number of Hz > 0");
   if (config.max_steps < 1)
     throw std::invalid_argument("spool_sim: max_steps must be >= 1");
   const double dt = 1.0 / config.rate;
+  ApproachWorld world(config.seed, config.size, config.detector.geometry, config.limits);
   TrialResult result;
   result.seed = config.seed;
-  result.start = drawTrialStart(config.seed);
+  result.start = world.start();
   result.time_to_insert = result.front_miss = result.back_miss = std::numeric_limits<double>::quiet_NaN();
+  result.tolerance = world.tolerance();
 
-  CameraIntrinsics camera = setCamera(FrameSet::kApproachHard, config.size);
-  camera.distortion = c270Distortion();
-  const SpoolRenderer renderer(camera);
   TrackingDetector detector(config.detector);
-  detector.detector().setCamera(camera);
+  detector.detector().setCamera(world.camera());
   ApproachController controller(config.controller, config.detector.geometry);
-  Forklift robot(result.start.robot, config.limits, result.start.actuation, mix(config.seed, 3));
-  SceneParams scene = randomHardScene(SceneKind::kSpool, result.start.scene_seed);
-  const double rod_length = scene.puller_rod_length;
   const double puller_y = config.detector.geometry.puller_offset_y;
-  result.tolerance = 0.5 * (scene.hole_diameter - config.detector.geometry.puller_diameter);
 
   bool pushed = false;
   bool held_at_end = false;
   for (int step = 0; step < config.max_steps; ++step)
   {
-    const ForkliftState& state = robot.state();
-    if (state.depth < kMinDepth)
+    const ForkliftState state = world.robot().state();
+    if (world.droveIntoFace())
     {
       result.outcome = TrialOutcome::kCollision;
       break;
     }
-    scene.seed = mix(config.seed, 100 + static_cast<std::uint64_t>(step));
-    setMotionBlur(state, scene);
-    // The rod's tip stays below the hole's bottom rim in the image, as in approach_hard.
-    const double rod_top = puller_y - 0.5 * config.detector.geometry.puller_diameter;
-    const double hole_bottom = (puller_y + 0.5 * scene.hole_diameter) / state.depth;
-    scene.puller_rod_length = std::min(rod_length, 0.8 * rod_top / hole_bottom);
     RenderedFrame frame;
     try
     {
       // The oracle needs no image unless one is kept.
-      frame = config.oracle && !config.keep_pictures
-                  ? RenderedFrame{cv::Mat(), renderer.groundTruth(scene, robot.cameraPose())}
-                  : renderer.render(scene, robot.cameraPose());
+      frame = world.view(step, !config.oracle || config.keep_pictures);
     }
     catch (const std::invalid_argument&)
     {
-      // The renderer's "impossible pose": turned so far that part of the front flange is behind
-      // the camera. No view of the spool is left to drive on.
       result.outcome = TrialOutcome::kLost;
       break;
     }
@@ -176,7 +214,7 @@ TrialResult runTrial(const TrialConfig& config)
     if (!config.oracle)
       tracked = detector.process(frame.image, PixelFormat::kBgr8, time);
     const ApproachObservation observation = config.oracle ? observeTruth(frame.truth) : observePublished(tracked);
-    const ApproachCommand command = controller.update(observation, robot.odometry(), dt);
+    const ApproachCommand command = controller.update(observation, world.robot().odometry(), dt);
 
     TrialStep record;
     record.time = time;
@@ -191,7 +229,7 @@ TrialResult runTrial(const TrialConfig& config)
     record.track_front_miss = tracked.track.front_miss;
     record.track_back_miss = tracked.track.back_miss;
     record.track_miss_sigma = tracked.track.miss_sigma;
-    pullerMisses(state, puller_y, scene.bore_length, record.true_front_miss, record.true_back_miss);
+    pullerMisses(state, puller_y, world.boreLength(), record.true_front_miss, record.true_back_miss);
     result.trajectory.push_back(record);
     result.steps = step + 1;
     result.frames_detected += observation.detected ? 1 : 0;
@@ -217,14 +255,7 @@ TrialResult runTrial(const TrialConfig& config)
     {
       pushed = true;
       result.time_to_insert = time;
-      pullerMisses(state, puller_y, scene.bore_length, result.front_miss, result.back_miss);
-      const double at_face = std::abs(state.x + state.depth * std::tan(state.heading));
-      if (at_face > 0.5 * scene.flange_diameter)
-        result.outcome = TrialOutcome::kWrongSpool;
-      else if (std::max(result.front_miss, result.back_miss) <= result.tolerance)
-        result.outcome = TrialOutcome::kInserted;
-      else
-        result.outcome = TrialOutcome::kCollision;
+      result.outcome = world.judgePush(result.front_miss, result.back_miss);
       break;
     }
     if (controller.phase() == ApproachPhase::kGaveUp)
@@ -232,7 +263,7 @@ TrialResult runTrial(const TrialConfig& config)
       result.outcome = held_at_end ? TrialOutcome::kTimeout : TrialOutcome::kLost;
       break;
     }
-    robot.step(command, dt);
+    world.drive(command, dt);
   }
   if (!pushed && result.outcome != TrialOutcome::kCollision && controller.phase() != ApproachPhase::kGaveUp)
     result.outcome = TrialOutcome::kTimeout;

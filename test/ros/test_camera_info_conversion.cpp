@@ -199,6 +199,33 @@ TEST(CameraInfoConversion, OtherAspectIsRefusedNamingBothSizes)
   EXPECT_NE(result.problem.find("calibrate the camera at 1280x720"), std::string::npos) << result.problem;
 }
 
+TEST(CameraInfoConversion, InfoFromCameraReadsBackAsTheSameCamera)
+{
+  for (const std::vector<double>& d :
+       {kPlumbBob, std::vector<double>{-0.1, 0.02, 0.0, 0.001, 0.003, 0.01, -0.02, 0.004}, std::vector<double>{}})
+  {
+    CameraIntrinsics camera;
+    camera.fx = 805.5;
+    camera.fy = 803.25;
+    camera.cx = 318.75;
+    camera.cy = 241.5;
+    camera.width = 640;
+    camera.height = 480;
+    camera.distortion = d;
+    const sensor_msgs::CameraInfo info = infoFromCamera(camera);
+    EXPECT_EQ(info.distortion_model, d.size() == 8 ? "rational_polynomial" : "plumb_bob");
+    const auto result = cameraFromInfo(info, 640, 480);
+    ASSERT_TRUE(result.camera) << result.problem;
+    expectIntrinsics(*result.camera, camera.fx, camera.fy, camera.cx, camera.cy, 640, 480);
+    EXPECT_EQ(result.camera->distorted(), !d.empty());
+    if (!d.empty())
+    {
+      EXPECT_EQ(result.camera->distortion, d);
+    }
+    EXPECT_TRUE(result.distortion_ignored.empty());
+  }
+}
+
 TEST(CameraInfoConversion, SameCalibrationIgnoresTheHeader)
 {
   auto a = calibration("plumb_bob", kPlumbBob);

@@ -13,6 +13,7 @@
 
 #include "spool_vision/control/approach_controller.h"
 #include "spool_vision/detector_params.h"
+#include "spool_vision/render/spool_renderer.h"
 #include "spool_vision/sim/forklift.h"
 #include "spool_vision/spool_tracker.h"
 
@@ -105,6 +106,64 @@ struct TrialResult
 /// The puller's axis against the bore's (the renderer's geometry: bore axis along world z through
 /// x = 0 at the hole's height) at the front face and `bore_length` behind it (m).
 void pullerMisses(const ForkliftState& robot, double puller_offset_y, double bore_length, double& front, double& back);
+
+/// One trial's world without the vision and the controller: the shelf drawn from the seed, the
+/// forklift at its start, the frames its camera sees and the judge of a push. runTrial drives it
+/// with TrackingDetector and ApproachController in one process; spool_sim_world (ROS) drives it
+/// through topics.
+class ApproachWorld
+{
+public:
+  /// Throws std::invalid_argument on a size under 64x48.
+  ApproachWorld(std::uint64_t seed, cv::Size size, const GeometryParams& geometry, const ForkliftLimits& limits);
+
+  const TrialStart& start() const
+  {
+    return start_;
+  }
+  /// The approach_hard camera at the trial's size with the C270-like lens (c270Distortion)
+  const CameraIntrinsics& camera() const
+  {
+    return camera_;
+  }
+  const Forklift& robot() const
+  {
+    return robot_;
+  }
+  /// m, t_f: half the bore's clearance around the puller
+  double tolerance() const;
+  /// m, the bore's length (where the back miss is taken)
+  double boreLength() const
+  {
+    return scene_.bore_length;
+  }
+
+  /// What the camera sees from the robot's pose now: frame number `step` (each frame its own
+  /// noise), smeared by the robot's own motion; `draw` false gives the truth only. Throws
+  /// std::invalid_argument for a pose the renderer cannot draw (part of the front flange behind
+  /// the camera: no view of the spool is left to drive on).
+  RenderedFrame view(int step, bool draw = true);
+  /// True once the robot is nearer than 30 cm to the face: inside the flange's rim, it drove in.
+  bool droveIntoFace() const;
+  /// A push straight in from the pose now, judged on the renderer's geometry: kInserted,
+  /// kCollision or kWrongSpool, with the puller's misses at the bore's front and back (m).
+  TrialOutcome judgePush(double& front_miss, double& back_miss) const;
+  /// Drives `dt` s on `command` (Forklift::step).
+  void drive(const ApproachCommand& command, double dt)
+  {
+    robot_.step(command, dt);
+  }
+
+private:
+  std::uint64_t seed_;
+  TrialStart start_;
+  GeometryParams geometry_;
+  CameraIntrinsics camera_;
+  SpoolRenderer renderer_;
+  SceneParams scene_;
+  double rod_length_;
+  Forklift robot_;
+};
 
 /// Runs one trial. Throws std::invalid_argument on a bad configuration (size, rate, steps) and
 /// ParamError on bad detector parameters.
