@@ -3,7 +3,8 @@
 (SpoolPose at 10 Hz) and the robot (odom), sends an ApproachAndInsert goal and checks the
 commands: a bore ahead and to the left turns the robot left (REP 103: angular.z > 0) and drives it
 forward; a bore lower than the puller lowers the lift; `aligned` while coasting is never acted on;
-nor is a pose that disagrees with the odometry; `aligned` on a fused frame publishes `insert` and
+nor is a pose that disagrees with the odometry; a pose that comes before the odometry of its stamp
+waits for it; `aligned` on a fused frame publishes `insert` and
 ends the goal "inserted". A bad parameter
 stops the node at start-up naming the key."""
 import math
@@ -43,28 +44,36 @@ class ApproachControllerNode(unittest.TestCase):
         with cls.lock:
             store.append(message)
 
-    def play(self, frames, x=0.0, y=0.06, z=1.0, aligned=False, state=SpoolPose.TRACK_TRACKING, forward=0.0,
-             left=0.0):
-        """`frames` poses 0.1 s apart of a bore at (x, y, z), axis along the optical axis, each with
-        an odom message at the same stamp: the robot `forward` and `left` (m) of where it started,
-        heading unchanged (the controller checks the poses against that motion)."""
+    @staticmethod
+    def pose(stamp, x=0.0, y=0.06, z=1.0, aligned=False, state=SpoolPose.TRACK_TRACKING):
+        """A bore at (x, y, z) in the camera frame, its axis along the optical axis."""
+        pose = SpoolPose()
+        pose.header.stamp = stamp
+        pose.header.frame_id = "camera_optical_frame"
+        pose.detected = True
+        pose.hole_detected = True
+        pose.aligned = aligned
+        pose.track_state = state
+        pose.position.x, pose.position.y, pose.position.z = x, y, z
+        pose.axis.x, pose.axis.y, pose.axis.z = 0.0, 0.0, 1.0
+        return pose
+
+    @staticmethod
+    def odometry(stamp, forward=0.0, left=0.0):
+        """The robot `forward` and `left` (m) of where it started, heading unchanged."""
+        odom = Odometry()
+        odom.header.stamp = stamp
+        odom.pose.pose.position.x, odom.pose.pose.position.y = forward, left
+        odom.pose.pose.orientation.w = 1.0
+        return odom
+
+    def play(self, frames, forward=0.0, left=0.0, **bore):
+        """`frames` poses 0.1 s apart (`bore`: pose()'s keywords), each with an odom message at the
+        same stamp (the controller checks the poses against that motion)."""
         for _ in range(frames):
             stamp = rospy.Time.now()
-            pose = SpoolPose()
-            pose.header.stamp = stamp
-            pose.header.frame_id = "camera_optical_frame"
-            pose.detected = True
-            pose.hole_detected = True
-            pose.aligned = aligned
-            pose.track_state = state
-            pose.position.x, pose.position.y, pose.position.z = x, y, z
-            pose.axis.x, pose.axis.y, pose.axis.z = 0.0, 0.0, 1.0
-            odom = Odometry()
-            odom.header.stamp = stamp
-            odom.pose.pose.position.x, odom.pose.pose.position.y = forward, left
-            odom.pose.pose.orientation.w = 1.0
-            self.odom.publish(odom)
-            self.poses.publish(pose)
+            self.odom.publish(self.odometry(stamp, forward, left))
+            self.poses.publish(self.pose(stamp, **bore))
             rospy.sleep(0.1)
 
     def wait_for(self, store, count):
@@ -99,6 +108,16 @@ class ApproachControllerNode(unittest.TestCase):
         lifts = self.wait_for(self.lifts, 5)
         self.assertLess(lifts[-1].data, 0.0, "the bore is lower: lift down")
         self.assertEqual(self.client.get_state(), actionlib.GoalStatus.ACTIVE)
+        # A pose that comes before the odometry of its stamp waits for it: no command until then.
+        with self.lock:
+            before = len(self.twists)
+        stamp = rospy.Time.now()
+        self.poses.publish(self.pose(stamp, x=-0.05, y=0.07))
+        rospy.sleep(0.4)
+        with self.lock:
+            self.assertEqual(len(self.twists), before, "a pose newer than every odometry waits for its own")
+        self.odom.publish(self.odometry(stamp))
+        self.wait_for(self.twists, before + 1)
         # The robot has driven 44 cm on and 5 cm left: the same bore now at the standoff, straight
         # ahead. Aligned on coasting frames (the tracker's prediction) is not acted on.
         at_standoff = dict(z=0.56, aligned=True, forward=0.44, left=0.05)
