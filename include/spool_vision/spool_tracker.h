@@ -85,7 +85,7 @@ struct TrackedSpool
   double miss_sigma = kNaN;
   /// The filtered state clears the bore: each miss plus track_aligned_sigma sigmas within
   /// t_f - aligned_margin on track_confirm_frames fused frames in a row (this one among them),
-  /// the depth in the insertion window, and a pixel no wider than aligned_max_pixel_angle
+  /// the depth in the insertion window, and a pixel no wider than track_aligned_max_pixel_angle
   bool aligned = false;
 };
 
@@ -196,7 +196,7 @@ private:
   bool axis_known_ = false;
   AxisCue axis_cue_ = AxisCue::kNone;  ///< of the latest measurement fused into axis_
   int axis_refused_ = 0;               ///< axis measurements refused in a row
-  bool fine_enough_ = true;            ///< the camera's pixel subtends at most aligned_max_pixel_angle
+  bool fine_enough_ = true;            ///< the camera's pixel subtends at most track_aligned_max_pixel_angle
   int coasted_ = 0;                    ///< frames in a row without a fused detection (a followed rib ring is neither)
   /// The depth of the bore over that of the rib ring taken for the flange (the ring's size relative
   /// to the flange's) and its variance: learnt at a rib episode's first frame, cleared by a fused flange

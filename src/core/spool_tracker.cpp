@@ -222,8 +222,8 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   tracked_.rejected_now = false;
   tracked_.fused_now = false;
   const MeasurementNoise noise = measurementNoise(detection, camera.height, params_.tracker);
-  // As per frame: from a coarser image the axis is too uncertain (and biased) to claim clearance.
-  fine_enough_ = 1.0 / camera.fy <= params_.geometry.aligned_max_pixel_angle;
+  // The filter's sigma carries a coarser image's looser axis; the coarsest (160x120) stays out.
+  fine_enough_ = 1.0 / camera.fy <= params_.tracker.aligned_max_pixel_angle;
 
   if (!active_)
   {

@@ -430,14 +430,25 @@ TEST(SpoolTracker, TrackedDetectionCarriesTheFilteredValues)
   EXPECT_TRUE(std::isnan(none.distance));
 }
 
-TEST(SpoolTracker, NeverAlignedFromACoarserImageThanThePerFrameRuleAllows)
+TEST(SpoolTracker, AlignedAt320x240ButNeverFromACoarserImageThanTrackAlignedMaxPixelAngle)
 {
-  // At 320x240 (1 / fy = 2.5 mrad > aligned_max_pixel_angle) the axis is too uncertain and
-  // biased to claim the clearance, tracked or not.
+  // At 320x240 (1 / fy = 2.5 mrad) the filter's sigma decides; at 160x120 (5 mrad) never.
+  for (const int width : {320, 160})
+  {
+    const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(width, width * 3 / 4);
+    SpoolTracker tracker;
+    bool aligned = false;
+    for (int i = 0; i < 60; ++i)
+      aligned = tracker.update(detectionAt({0.0, 0.06, 0.55}, kAlong, nullptr), stamp(i), camera).aligned || aligned;
+    EXPECT_EQ(aligned, width == 320) << width;
+  }
+  // The key closes 320x240 too.
+  DetectorParams p;
+  p.tracker.aligned_max_pixel_angle = 0.002;
+  SpoolTracker strict(p);
   const CameraIntrinsics qvga = CameraIntrinsics::thesisDefault(320, 240);
-  SpoolTracker tracker;
   for (int i = 0; i < 60; ++i)
-    EXPECT_FALSE(tracker.update(detectionAt({0.0, 0.06, 0.55}, kAlong, nullptr), stamp(i), qvga).aligned) << i;
+    EXPECT_FALSE(strict.update(detectionAt({0.0, 0.06, 0.55}, kAlong, nullptr), stamp(i), qvga).aligned) << i;
 }
 
 TEST(SpoolTracker, TheBoresParallaxHoldsTheYawTheRimGetsWrong)
