@@ -441,7 +441,7 @@ def markdown(args, summary, drop, fails, seqs, index_check, meta):
     L = ["Sequences: spool_render `%s`, %d frames at %g Hz (%.2f m/s), seeds %s; per-frame = `spool_detect`, "
          "tracked = `spool_detect --track --rate %g`. Depth error: |distance - true depth| / true depth on every "
          "frame that reports a distance. Aligned needs 1/fy <= aligned_max_pixel_angle per frame (default: "
-         "640x480 and up) and <= track_aligned_max_pixel_angle tracked (default: 320x240 and up)." % (args.set, args.count, args.rate, 0.59 * args.rate / (args.count - 1),
+         "640x480 and up) and <= track_aligned_max_pixel_angle tracked (default: the same)." % (args.set, args.count, args.rate, 0.59 * args.rate / (args.count - 1),
                                             ",".join(map(str, args.seeds)), args.rate), "",
          "### Accuracy and aligned", "",
          "| size | mode | frames | depth err >3% / >1% | max depth err % | median on target % | other spool / no spool "

@@ -222,7 +222,7 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   tracked_.rejected_now = false;
   tracked_.fused_now = false;
   const MeasurementNoise noise = measurementNoise(detection, camera.height, params_.tracker);
-  // The filter's sigma carries a coarser image's looser axis; the coarsest (160x120) stays out.
+  // Its own key: at 320x240 the filter's sigma could decide, but a biased depth is not in it.
   fine_enough_ = 1.0 / camera.fy <= params_.tracker.aligned_max_pixel_angle;
 
   if (!active_)
