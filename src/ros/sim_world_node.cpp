@@ -20,6 +20,7 @@
 #include <condition_variable>
 #include <limits>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -57,18 +58,25 @@ struct SimWorldParams
   double puller_offset_y = sv::GeometryParams{}.puller_offset_y;
 };
 
+template <typename T>
+std::string text(T value)
+{
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
 /// `key` from `pnh` (or `fallback`), refused outside [low, high] with a message naming the key,
 /// the range and the fix.
 template <typename T>
 T readBounded(const ros::NodeHandle& pnh, const std::string& key, T fallback, T low, T high)
 {
+  const std::string range = "[" + text(low) + ", " + text(high) + "]";
   T value = fallback;
   if (pnh.hasParam(key) && !pnh.getParam(key, value))
-    throw sv::ParamError(key, "has the wrong type; set a number in [" + std::to_string(low) + ", " +
-                                  std::to_string(high) + "] (config/sim_world.yaml)");
+    throw sv::ParamError(key, "has the wrong type; set a number in " + range + " (config/sim_world.yaml)");
   if (!(value >= low && value <= high))
-    throw sv::ParamError(key, std::to_string(value) + " is outside [" + std::to_string(low) + ", " +
-                                  std::to_string(high) + "]; set it in that range (config/sim_world.yaml)");
+    throw sv::ParamError(key, text(value) + " is outside " + range + "; set it in that range (config/sim_world.yaml)");
   return value;
 }
 

@@ -48,6 +48,17 @@ class SimLoop(unittest.TestCase):
         self.assertAlmostEqual(trial["back_miss_mm"], 1e3 * outcome.back_miss, delta=0.05)
         self.assertFalse(math.isnan(outcome.time_to_insert))
 
+    def test_a_bad_parameter_stops_the_world_naming_it(self):
+        binary = roslib.packages.find_node("spool_vision", "spool_sim_world")[0]
+        try:
+            r = subprocess.run([binary, "__name:=bad_rate", "_rate:=0.0"], stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, timeout=60, universal_newlines=True)
+        except subprocess.TimeoutExpired:
+            self.fail("spool_sim_world kept running with rate 0")
+        self.assertEqual(r.returncode, 1, r.stdout)
+        self.assertIn("'rate': 0 is outside [1, 100]", r.stdout)
+        self.assertIn("config/sim_world.yaml", r.stdout)
+
 
 if __name__ == "__main__":
     rostest.rosrun("spool_vision", "sim_loop", SimLoop)
