@@ -44,7 +44,6 @@ ApproachController::ApproachController(const ApproachControllerParams& params, c
   requirePositive(params.min_speed, "min_speed");
   requirePositive(params.slow_down, "slow_down");
   requirePositive(params.lookahead, "lookahead");
-  requirePositive(params.min_lookahead, "min_lookahead");
   requirePositive(params.heading_gain, "heading_gain");
   requirePositive(params.max_yaw_rate, "max_yaw_rate");
   requirePositive(params.lift_gain, "lift_gain");
@@ -155,19 +154,12 @@ ApproachCommand ApproachController::steer(const ApproachObservation& observation
   double to_face = 0.0;
   lineErrors(odometry, lateral, heading, to_face);
   ApproachCommand command;
+  command.speed = speed;
   // Turn onto the axis's direction, plus towards the axis point `lookahead` ahead (none when
-  // turning in place: the puller is the turning point, its lateral error stays). The lookahead
-  // shrinks with the depth still to go, down to min_lookahead: the lateral error must be gone at
-  // the standoff, where only a new run-up could remove it.
-  const double lookahead = std::clamp(to_face - params_.standoff_depth,
-                                      std::min(params_.min_lookahead, params_.lookahead), params_.lookahead);
-  const double towards_axis = speed > 0.0 ? std::atan(-lateral / lookahead) : 0.0;
-  const double wanted = params_.heading_gain * (heading + towards_axis);
-  command.yaw_rate = std::clamp(wanted, -params_.max_yaw_rate, params_.max_yaw_rate);
-  // A turn the yaw-rate limit cannot follow at this speed is driven slower, on the same path.
-  command.speed = std::abs(wanted) > params_.max_yaw_rate
-                      ? std::max(speed * params_.max_yaw_rate / std::abs(wanted), std::min(speed, params_.min_speed))
-                      : speed;
+  // turning in place: the puller is the turning point, its lateral error stays).
+  const double towards_axis = speed > 0.0 ? std::atan(-lateral / params_.lookahead) : 0.0;
+  command.yaw_rate =
+      std::clamp(params_.heading_gain * (heading + towards_axis), -params_.max_yaw_rate, params_.max_yaw_rate);
   if (observation.detected && std::isfinite(observation.position.y))
     command.lift_rate = std::clamp(-params_.lift_gain * (observation.position.y - geometry_.puller_offset_y),
                                    -params_.max_lift_rate, params_.max_lift_rate);

@@ -46,7 +46,6 @@ sv::ApproachControllerParams readParams(const ros::NodeHandle& pnh, sv::Geometry
   pnh.param("min_speed", p.min_speed, p.min_speed);
   pnh.param("slow_down", p.slow_down, p.slow_down);
   pnh.param("lookahead", p.lookahead, p.lookahead);
-  pnh.param("min_lookahead", p.min_lookahead, p.min_lookahead);
   pnh.param("heading_gain", p.heading_gain, p.heading_gain);
   pnh.param("max_yaw_rate", p.max_yaw_rate, p.max_yaw_rate);
   pnh.param("line_memory", p.line_memory, p.line_memory);

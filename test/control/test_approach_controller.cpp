@@ -85,42 +85,6 @@ TEST(ApproachController, DrivesTowardsABoreOnTheLeftAndStopsAtTheStandoff)
   EXPECT_EQ(near.speed, 0.0);
 }
 
-TEST(ApproachController, NearTheStandoffTheLateralErrorIsPulledInHarder)
-{
-  // The puller 2 mm left of the axis (the bore 2 mm right), far and 8 cm before the standoff: the
-  // lookahead has shrunk there, so the same error turns the robot harder (right: yaw rate > 0).
-  sv::ApproachControllerParams p;
-  p.heading_gain = 1.0;  // keep both turns under max_yaw_rate
-  const double standoff = p.standoff_depth;
-  sv::ApproachController far_away{p, sv::GeometryParams()};
-  const double far_turn = far_away.update(boreAhead(1.0, 0.002), sv::OdometryPose(), kDt).yaw_rate;
-  sv::ApproachController close{p, sv::GeometryParams()};
-  const double close_turn = close.update(boreAhead(standoff + 0.08, 0.002), sv::OdometryPose(), kDt).yaw_rate;
-  EXPECT_GT(far_turn, 0.0);
-  EXPECT_NEAR(far_turn, std::atan(0.002 / p.lookahead), 1e-9);
-  EXPECT_NEAR(close_turn, std::atan(0.002 / 0.08), 1e-9);
-  // The lookahead stops shrinking at min_lookahead.
-  sv::ApproachController closest{p, sv::GeometryParams()};
-  EXPECT_NEAR(closest.update(boreAhead(standoff + 0.02, 0.002), sv::OdometryPose(), kDt).yaw_rate,
-              std::atan(0.002 / p.min_lookahead), 1e-9);
-}
-
-TEST(ApproachController, ATurnTooSharpForTheYawRateLimitIsDrivenSlower)
-{
-  // The bore 10 cm left at 1 m: the wanted turn is beyond max_yaw_rate, so the speed drops by the
-  // same ratio (the path stays the one the controller wants), not below min_speed.
-  sv::ApproachControllerParams p;
-  sv::ApproachController controller{p, sv::GeometryParams()};
-  const sv::ApproachCommand c = controller.update(boreAhead(1.0, -0.10), sv::OdometryPose(), kDt);
-  const double wanted = p.heading_gain * std::atan(-0.10 / p.lookahead);
-  EXPECT_DOUBLE_EQ(c.yaw_rate, -p.max_yaw_rate);
-  EXPECT_NEAR(c.speed, p.max_speed * p.max_yaw_rate / std::abs(wanted), 1e-12);
-  EXPECT_GE(c.speed, p.min_speed);
-  // Straight at it: full speed.
-  sv::ApproachController straight{p, sv::GeometryParams()};
-  EXPECT_DOUBLE_EQ(straight.update(boreAhead(1.0), sv::OdometryPose(), kDt).speed, p.max_speed);
-}
-
 TEST(ApproachController, LiftsThePullerToTheBoresHeight)
 {
   sv::ApproachController controller{sv::ApproachControllerParams(), sv::GeometryParams()};

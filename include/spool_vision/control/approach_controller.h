@@ -67,8 +67,6 @@ struct ApproachControllerParams
   double slow_down = 1.0;        ///< 1/s: speed = slow_down * depth still to go, clamped to the above
   /// m: the heading aims at the axis this far ahead (smaller converges faster, oscillates more)
   double lookahead = 0.15;
-  /// m: the lookahead shrinks to this as the standoff nears (the depth still to go, clamped)
-  double min_lookahead = 0.05;
   double heading_gain = 3.0;   ///< 1/s, yaw rate per rad of heading error (on odometry)
   double max_yaw_rate = 0.25;  ///< rad/s
   /// Weight kept by the bore axis's estimate in the odometry frame per new observation (the
@@ -96,8 +94,7 @@ struct ApproachControllerParams
 /// the floor plane each observation places the bore axis in the odometry frame, where a running
 /// average keeps it (the spool does not move); the controller steers the heading, on odometry,
 /// towards the point of that axis `lookahead` ahead of the puller (a Stanley-style line
-/// follower: vision's lag stays out of the fast loop; the lookahead shrinks to min_lookahead as
-/// the standoff nears, and a turn sharper than max_yaw_rate allows is driven slower), slows down
+/// follower: vision's lag stays out of the fast loop), slows down
 /// towards the standoff depth and stops there; the lift puts the puller at the bore's front
 /// centre height. In the window it only turns in place (the puller is the turning point) and
 /// waits for `aligned`; a lateral error needs a new run-up, which the back-off gives.
