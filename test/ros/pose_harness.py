@@ -4,9 +4,11 @@ SpoolPose of each one (matched by header stamp) and collect what the detector lo
 Waits are bounded in wall-clock time only so that a broken node fails the test instead of
 hanging it; no assertion depends on timing.
 """
+import subprocess
 import threading
 import time
 
+import roslib.packages
 import rospy
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image
@@ -117,3 +119,17 @@ class StampedMessages(object):
     def has(self, stamp):
         with self._lock:
             return stamp in self._msgs
+
+
+def assert_refuses(test, node, param, value, *expected):
+    """Starts `node` of this package with private `param`:=`value` and asserts it stops at once with
+    exit code 1 and a message holding each of `expected`."""
+    binary = roslib.packages.find_node("spool_vision", node)[0]
+    try:
+        r = subprocess.run([binary, "__name:=bad_" + param, "_%s:=%s" % (param, value)], stdout=subprocess.PIPE,
+                           stderr=subprocess.STDOUT, timeout=TIMEOUT, universal_newlines=True)
+    except subprocess.TimeoutExpired:
+        test.fail("%s kept running with %s %s" % (node, param, value))
+    test.assertEqual(r.returncode, 1, r.stdout)
+    for text in expected:
+        test.assertIn(text, r.stdout)

@@ -8,18 +8,17 @@ waits for it; `aligned` on a fused frame publishes `insert` and
 ends the goal "inserted". A bad parameter
 stops the node at start-up naming the key."""
 import math
-import subprocess
 import threading
 import unittest
 
 import actionlib
-import roslib.packages
 import rospy
 import rostest
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from std_msgs.msg import Empty, Float64
 
+from pose_harness import assert_refuses
 from spool_vision.msg import ApproachAndInsertAction, ApproachAndInsertGoal, SpoolPose
 
 TIMEOUT = 30.0
@@ -140,16 +139,8 @@ class ApproachControllerNode(unittest.TestCase):
         self.assertTrue(math.isfinite(self.client.get_result().time))
 
     def test_a_bad_parameter_stops_the_node_naming_it(self):
-        binary = roslib.packages.find_node("spool_vision", "spool_approach_controller")[0]
-        try:
-            r = subprocess.run([binary, "__name:=bad_lookahead", "_lookahead:=0.0"], stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, timeout=TIMEOUT, universal_newlines=True)
-        except subprocess.TimeoutExpired:
-            self.fail("the node kept running with lookahead 0")
-        self.assertEqual(r.returncode, 1, r.stdout)
-        self.assertIn("lookahead", r.stdout)
-        self.assertIn("config/approach_controller.yaml", r.stdout)
-
+        assert_refuses(self, "spool_approach_controller", "lookahead", "0.0", "lookahead",
+                       "config/approach_controller.yaml")
 
 if __name__ == "__main__":
     rostest.rosrun("spool_vision", "approach_controller", ApproachControllerNode)

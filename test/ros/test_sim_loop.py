@@ -18,6 +18,7 @@ import rostest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
 import run_sim_trial  # noqa: E402 (the launch's own trial runner, from scripts/)
+from pose_harness import assert_refuses  # noqa: E402
 
 TIMEOUT = 600.0  # wall s: a trial is 6-60 s of frames at 640x480
 
@@ -49,16 +50,7 @@ class SimLoop(unittest.TestCase):
         self.assertFalse(math.isnan(outcome.time_to_insert))
 
     def test_a_bad_parameter_stops_the_world_naming_it(self):
-        binary = roslib.packages.find_node("spool_vision", "spool_sim_world")[0]
-        try:
-            r = subprocess.run([binary, "__name:=bad_rate", "_rate:=0.0"], stdout=subprocess.PIPE,
-                               stderr=subprocess.STDOUT, timeout=60, universal_newlines=True)
-        except subprocess.TimeoutExpired:
-            self.fail("spool_sim_world kept running with rate 0")
-        self.assertEqual(r.returncode, 1, r.stdout)
-        self.assertIn("'rate': 0 is outside [1, 100]", r.stdout)
-        self.assertIn("config/sim_world.yaml", r.stdout)
-
+        assert_refuses(self, "spool_sim_world", "rate", "0.0", "'rate': 0 is outside [1, 100]", "config/sim_world.yaml")
 
 if __name__ == "__main__":
     rostest.rosrun("spool_vision", "sim_loop", SimLoop)
