@@ -161,6 +161,9 @@ struct TrackerParams
   /// robot speeding up, braking, turning): the process noise of the constant-velocity model
   double acceleration = 0.3;
   double axis_drift = 0.003;  ///< rad/sqrt(s), random walk of the spool axis seen from the camera
+  /// relative 1 sigma of the camera motion the robot's odometry gives (CameraMotion): of the
+  /// distance driven and of the angle turned between two frames
+  double odometry_noise = 0.05;
   /// rad, 1 sigma of how level the spools lie relative to the camera (a shelf board's tilt, the
   /// camera mount's pitch calibration): > 0 takes the axis's pitch as level_pitch with this
   /// uncertainty instead of measuring it from the rim, whose pitch is biased by 0.1-0.5 deg

@@ -59,6 +59,15 @@ struct MeasurementNoise
 /// centre stands in for the bore's (up to f (R/Z)^2 sin(tilt) px off) and the axis is unknown.
 MeasurementNoise measurementNoise(const SpoolDetection& detection, int image_height, const TrackerParams& params);
 
+/// The camera's motion between two frames, as the robot's odometry gives it: a point fixed in the
+/// scene at p (m) in the earlier frame's camera optical frame (REP 103) is at rotation * p +
+/// translation in the later one's. The identity is a camera that stood still.
+struct CameraMotion
+{
+  cv::Matx33d rotation = cv::Matx33d::eye();
+  cv::Vec3d translation{0.0, 0.0, 0.0};  ///< m
+};
+
 /// What the tracker holds after a frame. Positions in the camera optical frame (REP 103), m.
 struct TrackedSpool
 {
@@ -105,8 +114,14 @@ public:
   /// kMaxGap after it restarts the search. `whole_frame`: the detection came from a search of the
   /// whole frame, not of flangeWindow(): two such detections in a row (whatever windowed frames
   /// lie between) refused by the gate, agreeing with each other and as strong, end the track.
+  /// `motion`: the camera's motion since the previous frame, from odometry. It moves the track's
+  /// position and turns its axis with the camera (the axis held in the camera frame otherwise
+  /// lags the robot's turns by track_axis_drift); the constant-velocity model then keeps only
+  /// what odometry does not see (the lift, its scale error). Without it the whole apparent motion
+  /// is the constant-velocity model's. Give it on every frame or on none: a frame without it
+  /// after frames with it predicts no travel for that frame.
   const TrackedSpool& update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera,
-                             bool whole_frame = true);
+                             bool whole_frame = true, const std::optional<CameraMotion>& motion = std::nullopt);
 
   const TrackedSpool& current() const
   {
@@ -119,7 +134,9 @@ public:
   /// centre, f (R/Z)^2 sin(max_view_angle); radius margin: 3 sigma of the depth plus
   /// kRadiusSpread (a rib ring is 60-86% of the flange's size, a neighbour's rim elsewhere).
   /// nullopt without a track (searching, lost), or when the prediction is not ahead of the camera.
-  std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera) const;
+  /// `motion`: the camera's since the last frame, as update() takes it.
+  std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera,
+                                           const std::optional<CameraMotion>& motion = std::nullopt) const;
 
   /// Fraction of the predicted radius the flange window's radius margin adds.
   static constexpr double kRadiusSpread = 0.04;
@@ -144,7 +161,11 @@ private:
   };
 
   void start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
-  void predict(double dt);
+  void predict(double dt, const std::optional<CameraMotion>& motion);
+  /// The state seen from the camera after `motion`: position and velocity rotated and the
+  /// position moved, the axis's slopes turned (first order for their covariance), plus the
+  /// odometry's error (track_odometry_noise of the distance driven and of the angle turned).
+  void applyCameraMotion(const CameraMotion& motion);
   /// One position measurement (camera frame, m) with its covariance (m^2), gated; true when fused.
   bool fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
   /// The detection is this spool's own rib ring taken for the flange: its bore inside the track's
@@ -237,8 +258,10 @@ public:
     return tracker_;
   }
 
-  /// The frame `image` stamped `stamp` (s). Throws as SpoolDetector::detect().
-  TrackedFrame process(const cv::Mat& image, PixelFormat format, double stamp);
+  /// The frame `image` stamped `stamp` (s); `motion`: the camera's since the last frame, from
+  /// odometry (SpoolTracker::update). Throws as SpoolDetector::detect().
+  TrackedFrame process(const cv::Mat& image, PixelFormat format, double stamp,
+                       const std::optional<CameraMotion>& motion = std::nullopt);
 
 private:
   SpoolDetector detector_;

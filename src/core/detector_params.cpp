@@ -199,6 +199,9 @@ std::vector<ParamSpec> buildSpecs()
              "process noise: white-noise acceleration of the bore's front centre relative to the camera"),
       number("track_axis_drift", FIELD(tracker.axis_drift), 0.0, 1.0, "rad/sqrt(s)",
              "process noise: random walk of the spool axis seen from the camera"),
+      number("track_odometry_noise", FIELD(tracker.odometry_noise), 0.0, 1.0, "",
+             "relative 1 sigma of the camera motion from odometry (of the distance driven and the angle turned "
+             "between frames), where the node has odometry (~odom_frame) or spool_sim drives"),
       number("track_level_pitch_sigma", FIELD(tracker.level_pitch_sigma), 0.0, 0.2, "rad",
              "> 0: the spool axis's pitch is taken as level (track_level_pitch) with this 1 sigma instead of "
              "the rim's measurement (spools lying on a level board, a level camera); 0 = measured from the rim"),

@@ -208,7 +208,7 @@ void SpoolTracker::reset()
 }
 
 const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double stamp, const CameraIntrinsics& camera,
-                                         bool whole_frame)
+                                         bool whole_frame, const std::optional<CameraMotion>& motion)
 {
   const bool time_jumped = last_stamp_ && (stamp < *last_stamp_ || stamp - *last_stamp_ > kMaxGap);
   const double dt = last_stamp_ && !time_jumped ? stamp - *last_stamp_ : 0.0;
@@ -239,7 +239,7 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
     return tracked_;
   }
 
-  predict(dt);
+  predict(dt, motion);
   bool fused = false;
   bool followed_rib = false;
   if (usable(detection) && isRibRing(detection))
@@ -304,8 +304,10 @@ void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise
   tracked_.age = 0;
 }
 
-void SpoolTracker::predict(double dt)
+void SpoolTracker::predict(double dt, const std::optional<CameraMotion>& motion)
 {
+  if (motion)
+    applyCameraMotion(*motion);
   Matrix6 f = Matrix6::Identity();
   f.topRightCorner<3, 3>() = dt * Eigen::Matrix3d::Identity();
   // White-noise acceleration, per axis [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] q.
@@ -322,6 +324,55 @@ void SpoolTracker::predict(double dt)
     axis_p_ += params_.tracker.axis_drift * params_.tracker.axis_drift * dt * Eigen::Matrix2d::Identity();
     applyLevelPitch();
   }
+}
+
+namespace
+{
+Eigen::Matrix3d toEigen(const cv::Matx33d& m)
+{
+  Eigen::Matrix3d e;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      e(r, c) = m(r, c);
+  return e;
+}
+
+// rad, the angle `rotation` turns by (its axis-angle's)
+double turnAngle(const Eigen::Matrix3d& rotation)
+{
+  return std::acos(std::clamp(0.5 * (rotation.trace() - 1.0), -1.0, 1.0));
+}
+}  // namespace
+
+void SpoolTracker::applyCameraMotion(const CameraMotion& motion)
+{
+  const Eigen::Matrix3d r = toEigen(motion.rotation);
+  const Eigen::Vector3d t(motion.translation[0], motion.translation[1], motion.translation[2]);
+  const Eigen::Vector3d before = x_.head<3>();
+  Matrix6 rr = Matrix6::Zero();
+  rr.topLeftCorner<3, 3>() = r;
+  rr.bottomRightCorner<3, 3>() = r;
+  x_ = rr * x_;
+  x_.head<3>() += t;
+  p_ = rr * p_ * rr.transpose();
+  // The odometry's own error: a fraction of the distance driven, and of the angle turned, which
+  // swings the point by that angle times its distance from the camera.
+  const double k = params_.tracker.odometry_noise;
+  const double angle = turnAngle(r);
+  const double position_var = std::pow(k * t.norm(), 2.0) + std::pow(k * angle * before.norm(), 2.0);
+  p_.topLeftCorner<3, 3>() += position_var * Eigen::Matrix3d::Identity();
+  if (!axis_known_)
+    return;
+  // The axis direction (sx, sy, 1) turns with the camera; its slopes are the new direction's
+  // x/z and y/z, whose Jacobian in the old slopes carries their covariance across.
+  const Eigen::Vector3d d = r * Eigen::Vector3d(axis_.x(), axis_.y(), 1.0);
+  if (!(d.z() > 1e-6))
+    return;  // turned a quarter turn between two frames: no forklift does that
+  Eigen::Matrix<double, 2, 3> ds;
+  ds << 1.0 / d.z(), 0.0, -d.x() / (d.z() * d.z()), 0.0, 1.0 / d.z(), -d.y() / (d.z() * d.z());
+  const Eigen::Matrix2d j = ds * r.leftCols<2>();
+  axis_ = Eigen::Vector2d(d.x() / d.z(), d.y() / d.z());
+  axis_p_ = j * axis_p_ * j.transpose() + std::pow(k * angle, 2.0) * Eigen::Matrix2d::Identity();
 }
 
 void SpoolTracker::applyLevelPitch()
@@ -590,20 +641,27 @@ void SpoolTracker::decideAligned()
                      depth <= g.aligned_distance_max;
 }
 
-std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const CameraIntrinsics& camera) const
+std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const CameraIntrinsics& camera,
+                                                       const std::optional<CameraMotion>& motion) const
 {
   if (!active_ || tracked_.state == TrackState::kLost || !last_stamp_)
     return std::nullopt;
   const double dt = stamp - *last_stamp_;
   if (dt < 0.0 || dt > kMaxGap)
     return std::nullopt;
-  const Eigen::Vector3d p = x_.head<3>() + dt * x_.tail<3>();
+  Eigen::Vector3d p = x_.head<3>() + dt * x_.tail<3>();
+  // The prediction's covariance (the position block of F P F^T + Q) is close enough to P's
+  // position block grown by the velocity's over dt; the margins are generous multiples anyway.
+  Eigen::Matrix3d cov = p_.topLeftCorner<3, 3>() + dt * dt * p_.bottomRightCorner<3, 3>();
+  if (motion)
+  {
+    const Eigen::Matrix3d r = toEigen(motion->rotation);
+    p = r * p + Eigen::Vector3d(motion->translation[0], motion->translation[1], motion->translation[2]);
+    cov = r * cov * r.transpose();
+  }
   const double z = p.z();
   if (!(z > 0.05))
     return std::nullopt;
-  // The prediction's covariance (the position block of F P F^T + Q) is close enough to P's
-  // position block grown by the velocity's over dt; the margins are generous multiples anyway.
-  const Eigen::Matrix3d cov = p_.topLeftCorner<3, 3>() + dt * dt * p_.bottomRightCorner<3, 3>();
   const double f = std::max(camera.fx, camera.fy);
   const double sigma_across = std::sqrt(std::max(cov(0, 0), cov(1, 1))) / z;  // rad
   const double sigma_depth = std::sqrt(cov(2, 2)) / z;                        // relative
@@ -625,13 +683,14 @@ void TrackingDetector::setParams(const DetectorParams& params)
   tracker_.setParams(params);
 }
 
-TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format, double stamp)
+TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format, double stamp,
+                                       const std::optional<CameraMotion>& motion)
 {
   TrackedFrame frame;
   const int interval = detector_.params().tracker.full_search_interval;
   std::optional<FlangeWindow> window;
   if (since_full_search_ + 1 < interval)
-    window = tracker_.flangeWindow(stamp, detector_.camera());
+    window = tracker_.flangeWindow(stamp, detector_.camera(), motion);
   if (window)
   {
     frame.raw = detector_.detect(image, format, window);
@@ -646,7 +705,7 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
     frame.raw.time_ms += windowed_ms;
   }
   since_full_search_ = frame.full_search ? 0 : since_full_search_ + 1;
-  frame.track = tracker_.update(frame.raw, stamp, detector_.camera(), frame.full_search);
+  frame.track = tracker_.update(frame.raw, stamp, detector_.camera(), frame.full_search, motion);
   frame.published = trackedDetection(frame.raw, frame.track, detector_.params().geometry);
   return frame;
 }

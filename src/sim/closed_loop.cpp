@@ -189,6 +189,7 @@ TrialResult runTrial(const TrialConfig& config)
 
   bool pushed = false;
   bool held_at_end = false;
+  OdometryPose last_odometry = world.robot().odometry();
   for (int step = 0; step < config.max_steps; ++step)
   {
     const ForkliftState state = world.robot().state();
@@ -212,7 +213,13 @@ TrialResult runTrial(const TrialConfig& config)
 
     TrackedFrame tracked;
     if (!config.oracle)
-      tracked = detector.process(frame.image, PixelFormat::kBgr8, time);
+    {
+      std::optional<CameraMotion> motion;
+      if (config.odometry_motion && step > 0)
+        motion = cameraMotion(last_odometry, world.robot().odometry());
+      tracked = detector.process(frame.image, PixelFormat::kBgr8, time, motion);
+    }
+    last_odometry = world.robot().odometry();
     const ApproachObservation observation = config.oracle ? observeTruth(frame.truth) : observePublished(tracked);
     const ApproachCommand command = controller.update(observation, world.robot().odometry(), dt);
 

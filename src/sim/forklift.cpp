@@ -57,4 +57,22 @@ CameraPose Forklift::cameraPose() const
   return pose;
 }
 
+CameraMotion cameraMotion(const OdometryPose& from, const OdometryPose& to)
+{
+  // A point W of the floor plane (x right, z forward at the start) is at R(heading) (W - C) in
+  // the camera at C, R(a) = [[cos a, -sin a], [sin a, cos a]] on (x, z). So from the earlier
+  // camera to the later one: R(to - from) and R(to.heading) (C_from - C_to).
+  const double turn = to.heading - from.heading;
+  const double c = std::cos(turn);
+  const double s = std::sin(turn);
+  const double ch = std::cos(to.heading);
+  const double sh = std::sin(to.heading);
+  const double dx = from.x - to.x;
+  const double dz = from.z - to.z;
+  CameraMotion motion;
+  motion.rotation = cv::Matx33d(c, 0.0, -s, 0.0, 1.0, 0.0, s, 0.0, c);
+  motion.translation = {ch * dx - sh * dz, 0.0, sh * dx + ch * dz};
+  return motion;
+}
+
 }  // namespace spool_vision

@@ -29,6 +29,7 @@ namespace
 const char* const kUsage =
     "usage: spool_sim [--trials N] [--seed S] [--width W] [--height H] [--rate HZ] [--max-steps N]\n"
     "                 [--config YAML] [--pictures DIR] [--jobs J] [--oracle]\n"
+    "                 [--no-odometry]\n"
     "  --trials N     trials, seeds S .. S+N-1 (default 10)\n"
     "  --seed S       first trial's seed (default 1)\n"
     "  --width W --height H  camera mode (default 640x480)\n"
@@ -41,6 +42,8 @@ const char* const kUsage =
     "  --jobs J       trials run at once (default 2)\n"
     "  --oracle       drive on the renderer's truth instead of the detector (proves the\n"
     "                 simulation and the controller: must insert every time)\n"
+    "  --no-odometry  do not give the tracker the camera's motion from the robot's odometry\n"
+    "                 (the node without ~odom_frame)\n"
     "Prints one JSON line per trial, then a summary line {\"summary\": ...}. Exit 0 when every\n"
     "trial ran (whatever its outcome), 1 on an error, 2 on a bad command line.\n";
 
@@ -108,7 +111,7 @@ int run(int argc, char** argv)
   const sv::cli::CommandLine line(
       argc, argv,
       {"--trials", "--seed", "--width", "--height", "--rate", "--max-steps", "--config", "--pictures", "--jobs"},
-      kUsage, false, {"--oracle"});
+      kUsage, false, {"--oracle", "--no-odometry"});
   sv::TrialConfig base;
   const int trials = line.positiveInteger("--trials", 100000, 10);
   const std::uint64_t first_seed = line.seed("--seed", 1);
@@ -119,6 +122,7 @@ int run(int argc, char** argv)
   base.rate = line.positiveNumber("--rate", 10.0);
   base.max_steps = line.positiveInteger("--max-steps", 100000, 300);
   base.oracle = line.has("--oracle");
+  base.odometry_motion = !line.has("--no-odometry");
   const std::string config = line.text("--config");
   if (!config.empty())
     sv::loadParamsYaml(config, base.detector);
@@ -201,6 +205,7 @@ int run(int argc, char** argv)
   summary["trials"] = trials;
   summary["size"] = std::to_string(base.size.width) + "x" + std::to_string(base.size.height);
   summary["controller"] = base.oracle ? "oracle" : "vision";
+  summary["odometry_motion"] = base.odometry_motion;
   summary["outcomes"] = outcomes;
   summary["inserted_share"] = static_cast<double>(outcomes["inserted"]) / trials;
   summary["median_time_to_insert"] = times.empty() ? nlohmann::json() : nlohmann::json(median(times));

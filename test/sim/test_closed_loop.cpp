@@ -54,6 +54,39 @@ TEST(Forklift, CameraPoseIsTheRenderersConvention)
   EXPECT_NEAR(truth.position.y, s.lift, 1e-9);
 }
 
+TEST(Forklift, CameraMotionFromOdometryMovesTheSceneAsTheRendererSeesIt)
+{
+  // Driving and turning without actuation error (odometry = truth): the bore's front centre and
+  // the spool axis in the later camera frame are the earlier ones moved by cameraMotion.
+  sv::ForkliftState s;
+  s.x = 0.08;
+  s.depth = 0.9;
+  s.heading = -4.0 * kDeg;
+  sv::Forklift robot(s, sv::ForkliftLimits(), sv::ActuationError(), 1);
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const sv::SceneParams scene;
+  sv::ApproachCommand command;
+  command.speed = 0.3;
+  command.yaw_rate = 0.4;
+  for (int i = 0; i < 5; ++i)
+    robot.step(command, 0.1);
+  const sv::OdometryPose before = robot.odometry();
+  const sv::GroundTruth a = renderer.groundTruth(scene, robot.cameraPose());
+  for (int i = 0; i < 3; ++i)
+    robot.step(command, 0.1);
+  const sv::GroundTruth b = renderer.groundTruth(scene, robot.cameraPose());
+  const sv::CameraMotion motion = sv::cameraMotion(before, robot.odometry());
+  const cv::Vec3d moved = motion.rotation * cv::Vec3d(a.position.x, a.position.y, a.position.z) + motion.translation;
+  EXPECT_NEAR(moved[0], b.position.x, 1e-9);
+  EXPECT_NEAR(moved[1], b.position.y, 1e-9);
+  EXPECT_NEAR(moved[2], b.position.z, 1e-9);
+  const cv::Vec3d turned = motion.rotation * a.axis;
+  for (int k = 0; k < 3; ++k)
+    EXPECT_NEAR(turned[k], b.axis[k], 1e-9);
+  // It did turn: the test would not see a sign error otherwise.
+  EXPECT_GT(std::abs(b.position.x - a.position.x), 0.05);
+}
+
 TEST(ClosedLoop, PullerMissesAgreeWithTheRenderersClearance)
 {
   const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));

@@ -55,6 +55,9 @@ struct TrialConfig
   /// controller: it must insert every time)
   bool oracle = false;
   bool keep_pictures = false;  ///< keep the first, the worst and the last frame with the overlay
+  /// Give the tracker the camera's motion between frames from the robot's odometry (cameraMotion),
+  /// as the node does with ~odom_frame
+  bool odometry_motion = true;
   DetectorParams detector;
   ApproachControllerParams controller;
   ForkliftLimits limits;

@@ -13,6 +13,7 @@
 
 #include "spool_vision/control/approach_controller.h"
 #include "spool_vision/render/spool_renderer.h"
+#include "spool_vision/spool_tracker.h"
 
 namespace spool_vision
 {
@@ -78,5 +79,10 @@ private:
   ActuationError error_;
   cv::RNG rng_;
 };
+
+/// The camera's motion (SpoolTracker's CameraMotion, optical frame) from odometry pose `from` to
+/// `to`: the camera turns about its own vertical axis (y, down) by the heading's change and moves
+/// in the floor plane. The lift is not in the odometry.
+CameraMotion cameraMotion(const OdometryPose& from, const OdometryPose& to);
 
 }  // namespace spool_vision
