@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Geometry>
+
 namespace spool_vision
 {
 namespace
@@ -205,6 +207,18 @@ visualization_msgs::Marker spoolMarker(const std_msgs::Header& header, const std
   marker.color.b = 0.2f;
   marker.color.a = 0.8f;
   return marker;
+}
+
+CameraMotion toCameraMotion(const geometry_msgs::Transform& transform)
+{
+  const Eigen::Quaterniond q(transform.rotation.w, transform.rotation.x, transform.rotation.y, transform.rotation.z);
+  const Eigen::Matrix3d r = q.normalized().toRotationMatrix();
+  CameraMotion motion;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      motion.rotation(i, j) = r(i, j);
+  motion.translation = {transform.translation.x, transform.translation.y, transform.translation.z};
+  return motion;
 }
 
 }  // namespace spool_vision

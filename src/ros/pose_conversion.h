@@ -5,6 +5,7 @@
 #include <optional>
 
 #include <geometry_msgs/Pose.h>
+#include <geometry_msgs/Transform.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <std_msgs/Header.h>
 #include <visualization_msgs/Marker.h>
@@ -51,5 +52,11 @@ std::optional<geometry_msgs::PoseWithCovarianceStamped> poseWithCovariance(const
 /// spool that is no longer seen.
 visualization_msgs::Marker spoolMarker(const std_msgs::Header& header, const std::optional<geometry_msgs::Pose>& pose,
                                        double flange_diameter, double hub_length);
+
+/// The tracker's CameraMotion from a TF transform of the camera frame at one stamp to itself at an
+/// earlier one (tf2_ros::Buffer::lookupTransform(camera, now, camera, before, odom)): it maps a
+/// point's coordinates in the earlier camera frame to the later one's, which is CameraMotion's
+/// meaning. The quaternion is normalised (TF accepts any length).
+CameraMotion toCameraMotion(const geometry_msgs::Transform& transform);
 
 }  // namespace spool_vision

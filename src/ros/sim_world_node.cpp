@@ -34,6 +34,8 @@
 #include <sensor_msgs/image_encodings.h>
 #include <std_msgs/Empty.h>
 #include <std_msgs/Float64.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
 
 #include "camera_info_conversion.h"
 #include "spool_vision/ApproachAndInsertActionFeedback.h"
@@ -45,6 +47,10 @@
 namespace
 {
 namespace sv = spool_vision;
+
+// REP 105's frames of the robot's odometry (nav_msgs/Odometry and TF).
+const char* const kOdomFrame = "odom";
+const char* const kBaseFrame = "base_link";
 
 struct SimWorldParams
 {
@@ -114,6 +120,17 @@ public:
     clock_pub_ = nh.advertise<rosgraph_msgs::Clock>("/clock", 1);
     camera_pub_ = it_.advertiseCamera("image_raw", 1);
     odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 1);
+    // The camera is the robot's reference point: its optical frame (z forward, x right, y down)
+    // sits on base_link (x forward, y left, z up), turned as REP 103 turns optical frames.
+    geometry_msgs::TransformStamped mount;
+    mount.header.stamp = time_;
+    mount.header.frame_id = kBaseFrame;
+    mount.child_frame_id = params_.frame_id;
+    mount.transform.rotation.x = -0.5;
+    mount.transform.rotation.y = 0.5;
+    mount.transform.rotation.z = -0.5;
+    mount.transform.rotation.w = 0.5;
+    static_tf_.sendTransform(mount);
     outcome_pub_ = pnh.advertise<spool_vision::SimTrialOutcome>("outcome", 1, true);
     cmd_sub_ = nh.subscribe("cmd_vel", 10, &SimWorldNode::onCmdVel, this);
     lift_sub_ = nh.subscribe("lift_velocity", 10, &SimWorldNode::onLift, this);
@@ -216,8 +233,8 @@ private:
     const sv::OdometryPose& o = world_.robot().odometry();
     nav_msgs::Odometry odom;
     odom.header.stamp = time_;
-    odom.header.frame_id = "odom";
-    odom.child_frame_id = "base_link";
+    odom.header.frame_id = kOdomFrame;
+    odom.child_frame_id = kBaseFrame;
     odom.pose.pose.position.x = o.z;
     odom.pose.pose.position.y = -o.x;
     odom.pose.pose.orientation.z = std::sin(-0.5 * o.heading);  // a yaw of -heading
@@ -225,6 +242,13 @@ private:
     odom.twist.twist.linear.x = world_.robot().state().speed;
     odom.twist.twist.angular.z = -world_.robot().state().yaw_rate;
     odom_pub_.publish(odom);
+    geometry_msgs::TransformStamped base;
+    base.header = odom.header;
+    base.child_frame_id = kBaseFrame;
+    base.transform.translation.x = odom.pose.pose.position.x;
+    base.transform.translation.y = odom.pose.pose.position.y;
+    base.transform.rotation = odom.pose.pose.orientation;
+    tf_.sendTransform(base);
     std_msgs::Header header;
     header.stamp = time_;
     header.frame_id = params_.frame_id;
@@ -339,6 +363,8 @@ private:
   image_transport::ImageTransport it_;
   sensor_msgs::CameraInfo info_;
   ros::Publisher clock_pub_, odom_pub_, outcome_pub_;
+  tf2_ros::TransformBroadcaster tf_;
+  tf2_ros::StaticTransformBroadcaster static_tf_;
   image_transport::CameraPublisher camera_pub_;
   ros::Subscriber cmd_sub_, lift_sub_, insert_sub_, pose_sub_, feedback_sub_, status_sub_;
   ros::Time time_{1.0};  // sim time starts at 1 s: 0 is "no time yet" to ROS

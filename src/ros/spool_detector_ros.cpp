@@ -127,7 +127,8 @@ const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
   static const std::set<std::string> keys = {
       "image_transport", "queue_size", "min_rate",    "max_rate",  "diagnostic_period",
-      "use_camera_info", "publish_tf", "spool_frame", "rectified", "track"};
+      "use_camera_info", "publish_tf", "spool_frame", "rectified", "track", "odom_frame",
+      "odom_timeout"};
   return keys;
 }
 
@@ -149,6 +150,20 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   const bool use_camera_info = readRosOption<bool>(pnh_, "use_camera_info", true, "true or false");
   const bool publish_tf = readRosOption<bool>(pnh_, "publish_tf", false, "true or false");
   track_ = readRosOption<bool>(pnh_, "track", false, "true or false");
+  odom_frame_ = readRosOption<std::string>(pnh_, "odom_frame", "", "a TF frame name, or empty for none");
+  odom_timeout_ = readRosOption<double>(pnh_, "odom_timeout", 0.05, "a number of seconds in [0, 1]");
+  if (!(odom_timeout_ >= 0.0 && odom_timeout_ <= 1.0))
+    throw ParamError("odom_timeout", std::to_string(odom_timeout_) +
+                                         " is out of range; allowed: seconds in [0, 1] (config/node.yaml)");
+  if (!odom_frame_.empty() && !track_)
+    ROS_WARN("spool_detector: odom_frame '%s' is unused: only the tracker (track:=true) takes the camera's motion",
+             odom_frame_.c_str());
+  if (!odom_frame_.empty() && track_)
+  {
+    tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+    // Its own spinner thread: the image callback may wait for a transform while it runs.
+    tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
+  }
   // A word or a bool: roslaunch's <param value="false"> and YAML's false arrive as bools.
   bool rectified_flag = false;
   const std::string rectified = pnh_.getParam("rectified", rectified_flag)
@@ -443,13 +458,47 @@ std::pair<cv::Mat, PixelFormat> SpoolDetectorRos::decodeCompressed(const sensor_
   throw std::invalid_argument("decoded image has an unsupported depth (format '" + msg.format + "')");
 }
 
+std::optional<CameraMotion> SpoolDetectorRos::cameraMotion(const std_msgs::Header& header)
+{
+  if (!tf_buffer_)
+    return std::nullopt;
+  const std::optional<ros::Time> before = last_motion_stamp_;
+  last_motion_stamp_ = header.stamp;
+  if (!before || header.stamp <= *before)
+    return std::nullopt;  // the first frame, or a bag played again (the tracker restarts)
+  // A wall-clock wait: on sim time the clock may stand still until this frame is answered.
+  const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(odom_timeout_);
+  while (true)
+  {
+    try
+    {
+      return toCameraMotion(
+          tf_buffer_->lookupTransform(header.frame_id, header.stamp, header.frame_id, *before, odom_frame_).transform);
+    }
+    catch (const tf2::TransformException& e)
+    {
+      if (ros::WallTime::now() >= deadline)
+      {
+        ++window_no_motion_;
+        ROS_WARN_THROTTLE(5.0,
+                          "spool_detector: no camera motion from TF for this frame (%s from %.3f to %.3f s through "
+                          "odom_frame %s): %s. The tracker predicts without odometry; check that odometry's TF "
+                          "reaches the camera frame, or raise odom_timeout",
+                          header.frame_id.c_str(), before->toSec(), header.stamp.toSec(), odom_frame_.c_str(), e.what());
+        return std::nullopt;
+      }
+    }
+    ros::WallDuration(0.001).sleep();
+  }
+}
+
 void SpoolDetectorRos::processFrame(const std_msgs::Header& header, const cv::Mat& image, PixelFormat format,
                                     const sensor_msgs::CameraInfoConstPtr& info)
 {
   updateCamera(info, image.cols, image.rows);
   TrackedFrame frame;
   if (track_)
-    frame = tracking_.process(image, format, header.stamp.toSec());
+    frame = tracking_.process(image, format, header.stamp.toSec(), cameraMotion(header));
   else
     frame.raw = frame.published = detector().detect(image, format);
   const SpoolDetection& detection = frame.published;
@@ -635,7 +684,10 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
     status.add("Track state", toString(track.state));
     status.add("Track age (frames)", track.age);
     status.add("Refused detections", window_rejected_);
+    if (tf_buffer_)
+      status.add("Frames without camera motion", window_no_motion_);
   }
+  window_no_motion_ = 0;
 
   window_frames_ = window_detected_ = window_failed_ = window_rejected_ = 0;
   window_detector_ms_ = window_detector_max_ms_ = window_callback_ms_ = 0.0;

@@ -18,7 +18,9 @@
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
+#include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 
 #include "sample_window.h"
 #include "spool_vision/SpoolDetectorConfig.h"
@@ -75,6 +77,10 @@ private:
   std::pair<cv::Mat, PixelFormat> decodeImage(const sensor_msgs::ImageConstPtr& msg);
   /// The frame of a jpeg or png message, decoded into decoded_ (grey: all the detector reads).
   std::pair<cv::Mat, PixelFormat> decodeCompressed(const sensor_msgs::CompressedImage& msg);
+  /// With ~odom_frame: the camera's motion from the last frame's stamp to this one's, looked up in
+  /// TF through odom_frame (waiting up to ~odom_timeout wall seconds for it); nullopt on the first
+  /// frame, after a time jump, or when TF has no transform (logged, counted in the diagnostics).
+  std::optional<CameraMotion> cameraMotion(const std_msgs::Header& header);
   void processFrame(const std_msgs::Header& header, const cv::Mat& image, PixelFormat format,
                     const sensor_msgs::CameraInfoConstPtr& info);
   /// Gives the detector the camera `info` describes for an image of this size (or the fallback).
@@ -122,6 +128,12 @@ private:
   image_transport::Publisher debug_pub_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;  ///< with publish_tf only
   std::string spool_frame_;
+  std::string odom_frame_;  ///< empty: no camera motion for the tracker
+  double odom_timeout_ = 0.05;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< with odom_frame_ only
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::optional<ros::Time> last_motion_stamp_;
+  int window_no_motion_ = 0;  ///< tracked frames after the first without a camera motion from TF
   bool frame_id_missing_reported_ = false;
 
   std::unique_ptr<dynamic_reconfigure::Server<SpoolDetectorConfig>> reconfigure_server_;

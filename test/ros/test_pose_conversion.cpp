@@ -3,6 +3,7 @@
 #include <limits>
 
 #include <gtest/gtest.h>
+#include <tf2/buffer_core.h>
 
 #include "../../src/ros/pose_conversion.h"
 
@@ -211,4 +212,41 @@ TEST(PoseConversion, MarkerWithoutASpoolDeletesIt)
 }
 
 }  // namespace
+TEST(PoseConversion, CameraMotionFromTfMovesAFixedPointAsTheCameraSeesIt)
+{
+  // REP 105 odometry: base_link 10 cm forward and turned 0.1 rad left between two stamps; the
+  // camera's optical frame on base_link as REP 103 turns it. A point fixed in odom, 1 m ahead and
+  // 20 cm left at the first stamp, must land where the second camera sees it.
+  tf2::BufferCore buffer;
+  geometry_msgs::TransformStamped mount;
+  mount.header.frame_id = "base_link";
+  mount.child_frame_id = "camera_optical";
+  mount.transform.rotation.x = -0.5;
+  mount.transform.rotation.y = 0.5;
+  mount.transform.rotation.z = -0.5;
+  mount.transform.rotation.w = 0.5;
+  ASSERT_TRUE(buffer.setTransform(mount, "test", true));
+  const double turn = 0.1;
+  for (int i = 0; i < 2; ++i)
+  {
+    geometry_msgs::TransformStamped base;
+    base.header.frame_id = "odom";
+    base.header.stamp = ros::Time(1.0 + i);
+    base.child_frame_id = "base_link";
+    base.transform.translation.x = 0.1 * i;
+    base.transform.rotation.z = std::sin(0.5 * turn * i);
+    base.transform.rotation.w = std::cos(0.5 * turn * i);
+    ASSERT_TRUE(buffer.setTransform(base, "test"));
+  }
+  const CameraMotion motion = toCameraMotion(
+      buffer.lookupTransform("camera_optical", ros::Time(2.0), "camera_optical", ros::Time(1.0), "odom").transform);
+  // The second base frame sees the point at R(-turn) (point - (0.1, 0)); optical = (-y, -z, x).
+  const double ahead = std::cos(turn) * 0.9 + std::sin(turn) * 0.2;
+  const double left = -std::sin(turn) * 0.9 + std::cos(turn) * 0.2;
+  const cv::Vec3d seen = motion.rotation * cv::Vec3d(-0.2, 0.0, 1.0) + motion.translation;
+  EXPECT_NEAR(seen[0], -left, 1e-9);
+  EXPECT_NEAR(seen[1], 0.0, 1e-9);
+  EXPECT_NEAR(seen[2], ahead, 1e-9);
+}
+
 }  // namespace spool_vision
