@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "spool_vision/control/approach_controller.h"
+#include "spool_vision/spool_geometry.h"
 
 namespace sv = spool_vision;
 
@@ -159,4 +160,38 @@ TEST(ApproachController, PosesThatDisagreeWithTheRobotsMotionAreNotTrusted)
     EXPECT_FALSE(controller.update(further, sv::OdometryPose(), kDt).insert) << i;
   }
   EXPECT_EQ(controller.phase(), sv::ApproachPhase::kBackOff);
+}
+
+TEST(ApproachController, AtTheStandoffAimsThePushThroughTheBore)
+{
+  // Stopped at the standoff with the bore 4 mm right of the puller and the axes parallel: pushed
+  // straight the puller would miss by 4 mm at both ends (t_f is 2.5 mm). Turning in place it
+  // aims through the bore instead, both misses e L / (2 D + L) = 0.6 mm.
+  const sv::GeometryParams g;
+  const double right = 0.004;
+  const double depth = sv::ApproachControllerParams{}.standoff_depth;
+  sv::ApproachController controller{sv::ApproachControllerParams(), g};
+  sv::OdometryPose odometry;
+  double front = 0.0;
+  double back = 0.0;
+  // Within hold_timeout (3 s), after which it would back off.
+  for (int i = 0; i < 25; ++i)
+  {
+    // The bore fixed on the floor, seen from the camera turned by the odometry's heading.
+    const double c = std::cos(odometry.heading);
+    const double s = std::sin(odometry.heading);
+    sv::ApproachObservation o;
+    o.detected = true;
+    o.position = {c * right - s * depth, g.puller_offset_y, s * right + c * depth};
+    o.axis = {-s, 0.0, c};
+    sv::pullerMiss(g, o.position, o.axis, front, back);
+    const sv::ApproachCommand command = controller.update(o, odometry, kDt);
+    ASSERT_EQ(command.speed, 0.0) << "step " << i;
+    ASSERT_EQ(controller.phase(), sv::ApproachPhase::kHold) << "step " << i;
+    odometry.heading += command.yaw_rate * kDt;
+  }
+  const double best = right * g.bore_length_max / (2.0 * depth + g.bore_length_max);
+  EXPECT_NEAR(front, best, 0.1e-3);
+  EXPECT_NEAR(back, best, 0.1e-3);
+  EXPECT_GT(odometry.heading, 0.0);  // towards the bore, to the right
 }

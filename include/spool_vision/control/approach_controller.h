@@ -96,8 +96,10 @@ struct ApproachControllerParams
 /// towards the point of that axis `lookahead` ahead of the puller (a Stanley-style line
 /// follower: vision's lag stays out of the fast loop), slows down
 /// towards the standoff depth and stops there; the lift puts the puller at the bore's front
-/// centre height. In the window it only turns in place (the puller is the turning point) and
-/// waits for `aligned`; a lateral error needs a new run-up, which the back-off gives.
+/// centre height. In the window it only turns in place (the puller is the turning point), aiming
+/// the push through the bore (the heading that makes the puller's misses at the bore's front and
+/// at bore_length_max equal and opposite), and waits for `aligned`; a lateral error too large for
+/// that needs a new run-up, which the back-off gives.
 class ApproachController
 {
 public:
