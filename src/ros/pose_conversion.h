@@ -5,8 +5,8 @@
 #include <optional>
 
 #include <geometry_msgs/Pose.h>
-#include <geometry_msgs/Transform.h>
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
+#include <geometry_msgs/Transform.h>
 #include <std_msgs/Header.h>
 #include <visualization_msgs/Marker.h>
 

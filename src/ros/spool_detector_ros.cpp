@@ -125,10 +125,9 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {
-      "image_transport", "queue_size", "min_rate",    "max_rate",  "diagnostic_period",
-      "use_camera_info", "publish_tf", "spool_frame", "rectified", "track", "odom_frame",
-      "odom_timeout"};
+  static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
+                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame",
+                                             "rectified",         "track",           "odom_frame", "odom_timeout"};
   return keys;
 }
 
@@ -153,8 +152,8 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   odom_frame_ = readRosOption<std::string>(pnh_, "odom_frame", "", "a TF frame name, or empty for none");
   odom_timeout_ = readRosOption<double>(pnh_, "odom_timeout", 0.05, "a number of seconds in [0, 1]");
   if (!(odom_timeout_ >= 0.0 && odom_timeout_ <= 1.0))
-    throw ParamError("odom_timeout", std::to_string(odom_timeout_) +
-                                         " is out of range; allowed: seconds in [0, 1] (config/node.yaml)");
+    throw ParamError("odom_timeout",
+                     std::to_string(odom_timeout_) + " is out of range; allowed: seconds in [0, 1] (config/node.yaml)");
   if (!odom_frame_.empty() && !track_)
     ROS_WARN("spool_detector: odom_frame '%s' is unused: only the tracker (track:=true) takes the camera's motion",
              odom_frame_.c_str());
@@ -484,7 +483,8 @@ std::optional<CameraMotion> SpoolDetectorRos::cameraMotion(const std_msgs::Heade
                           "spool_detector: no camera motion from TF for this frame (%s from %.3f to %.3f s through "
                           "odom_frame %s): %s. The tracker predicts without odometry; check that odometry's TF "
                           "reaches the camera frame, or raise odom_timeout",
-                          header.frame_id.c_str(), before->toSec(), header.stamp.toSec(), odom_frame_.c_str(), e.what());
+                          header.frame_id.c_str(), before->toSec(), header.stamp.toSec(), odom_frame_.c_str(),
+                          e.what());
         return std::nullopt;
       }
     }
