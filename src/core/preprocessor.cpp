@@ -334,6 +334,10 @@ void Preprocessor::process(const cv::Mat& image, PixelFormat format, cv::Mat& ou
     return;
   }
   checkFrame(image, format);
+  out.create(image.size(), CV_8U);
+  out.setTo(0);
+  if (inner.empty())
+    return;  // a window wholly beyond the frame's border: nothing to search
   // The filter reads filterReach() px around each pixel: computed over the padded rectangle,
   // whose own border replicates, `inner` comes out as in the whole frame (the frame's border
   // replicates the same way where the padding meets it).
@@ -342,12 +346,10 @@ void Preprocessor::process(const cv::Mat& image, PixelFormat format, cv::Mat& ou
       cv::Rect(inner.x - reach, inner.y - reach, inner.width + 2 * reach, inner.height + 2 * reach) & frame;
   gray_.create(image.size(), CV_8U);
   filtered_.create(image.size(), CV_8U);
-  out.create(image.size(), CV_8U);
   cv::Mat gray = gray_(padded);
   toGray(image(padded), format, gray);
   cv::Mat filtered = filtered_(padded);
   filter(gray, filtered);
-  out.setTo(0);
   filtered_(inner).copyTo(out(inner));
 }
 

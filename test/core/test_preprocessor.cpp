@@ -251,7 +251,9 @@ TEST(Preprocessor, ARegionHasTheWholeFramesPixelsInsideItAndNothingOutside)
   cv::GaussianBlur(bgr, bgr, cv::Size(), 1.5);
   cv::Mat mono;
   Preprocessor::toGray(bgr, PixelFormat::kBgr8, mono);
-  const std::vector<cv::Rect> regions = {{30, 20, 50, 40}, {0, 0, 40, 35}, {90, 60, 100, 100}, {-5, 70, 20, 40}};
+  // The last two miss the frame (a window predicted beyond its border): nothing inside, no error.
+  const std::vector<cv::Rect> regions = {{30, 20, 50, 40}, {0, 0, 40, 35},    {90, 60, 100, 100},
+                                         {-5, 70, 20, 40}, {130, 10, 20, 20}, {-40, -40, 20, 20}};
   for (FilterType f :
        {FilterType::kGaussian, FilterType::kUnsharp, FilterType::kMedian, FilterType::kAverage, FilterType::kNone})
   {
