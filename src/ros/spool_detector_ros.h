@@ -133,7 +133,9 @@ private:
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< with odom_frame_ only
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::optional<ros::Time> last_motion_stamp_;
-  int window_no_motion_ = 0;  ///< tracked frames after the first without a camera motion from TF
+  int window_no_motion_ = 0;
+  std::optional<ros::WallTime>
+      last_motion_warning_;  ///< tracked frames after the first without a camera motion from TF
   bool frame_id_missing_reported_ = false;
 
   std::unique_ptr<dynamic_reconfigure::Server<SpoolDetectorConfig>> reconfigure_server_;
