@@ -479,18 +479,14 @@ std::optional<CameraMotion> SpoolDetectorRos::cameraMotion(const std_msgs::Heade
       if (ros::WallTime::now() >= deadline)
       {
         ++window_no_motion_;
-        // Throttled on the wall clock: ROS_WARN_THROTTLE stays silent for its first period of sim
-        // time, which can be all of a short bag.
-        const ros::WallTime now = ros::WallTime::now();
-        if (!last_motion_warning_ || (now - *last_motion_warning_).toSec() >= kErrorThrottlePeriod)
-        {
-          last_motion_warning_ = now;
+        // Throttled on the wall clock, per kind, as input errors are: ROS_WARN_THROTTLE stays
+        // silent for its first period of sim time, which can be all of a short bag.
+        if (shouldLogError("odom_frame " + odom_frame_, e.what()))
           ROS_WARN(
               "spool_detector: no camera motion from TF for this frame (%s from %.3f to %.3f s through "
               "odom_frame %s): %s. The tracker predicts without odometry; check that odometry's TF "
               "reaches the camera frame, or raise odom_timeout",
               header.frame_id.c_str(), before->toSec(), header.stamp.toSec(), odom_frame_.c_str(), e.what());
-        }
         return std::nullopt;
       }
     }
