@@ -45,6 +45,9 @@ ApproachController::ApproachController(const ApproachControllerParams& params, c
   requirePositive(params.slow_down, "slow_down");
   requirePositive(params.lookahead, "lookahead");
   requirePositive(params.heading_gain, "heading_gain");
+  if (!(params.max_bore_bearing > 0.0 && params.max_bore_bearing < 0.5 * M_PI))
+    throw std::invalid_argument("approach controller: max_bore_bearing must be in (0, pi/2) rad, got " +
+                                std::to_string(params.max_bore_bearing));
   requirePositive(params.max_yaw_rate, "max_yaw_rate");
   requirePositive(params.lift_gain, "lift_gain");
   requirePositive(params.max_lift_rate, "max_lift_rate");
@@ -124,15 +127,21 @@ void ApproachController::lineErrors(const OdometryPose& odometry, double& latera
                                     double& depth_to_face) const
 {
   // The estimated line seen from the camera now.
+  const cv::Point2d bore = boreInCamera(odometry);
+  ApproachObservation seen;
+  seen.position = {bore.x, 0.0, bore.y};
+  const double relative = line_->heading - odometry.heading;
+  seen.axis = {std::sin(relative), 0.0, std::cos(relative)};
+  floorErrors(seen, geometry_, lateral, heading, depth_to_face);
+}
+
+cv::Point2d ApproachController::boreInCamera(const OdometryPose& odometry) const
+{
   const double c = std::cos(odometry.heading);
   const double s = std::sin(odometry.heading);
   const double dx = line_->x - odometry.x;
   const double dz = line_->z - odometry.z;
-  ApproachObservation seen;
-  seen.position = {dx * c - dz * s, 0.0, dx * s + dz * c};
-  const double relative = line_->heading - odometry.heading;
-  seen.axis = {std::sin(relative), 0.0, std::cos(relative)};
-  floorErrors(seen, geometry_, lateral, heading, depth_to_face);
+  return {dx * c - dz * s, dx * s + dz * c};
 }
 
 bool ApproachController::errors(const OdometryPose& odometry, double& lateral, double& heading,
@@ -161,11 +170,20 @@ ApproachCommand ApproachController::steer(const ApproachObservation& observation
   // (to_face ahead, e + to_face t) and at its back (bore_length_max further) equal and opposite,
   // t = -2 e / (2 to_face + bore_length_max), each then e bore_length_max / (2 to_face +
   // bore_length_max): a 3 mm error left at the end of a run-up misses by 0.5 mm, no back-off needed.
-  const double towards_axis =
-      speed > 0.0 ? std::atan(-lateral / params_.lookahead)
-                  : std::atan(-2.0 * lateral / (2.0 * std::max(to_face, 0.0) + geometry_.bore_length_max));
-  command.yaw_rate =
-      std::clamp(params_.heading_gain * (heading + towards_axis), -params_.max_yaw_rate, params_.max_yaw_rate);
+  // Reversing, only turn parallel to the axis: the back-off then keeps the lateral error it
+  // had instead of adding its heading's share of the distance reversed to it.
+  double towards_axis = 0.0;
+  if (speed > 0.0)
+    towards_axis = std::atan(-lateral / params_.lookahead);
+  else if (speed == 0.0)
+    towards_axis = std::atan(-2.0 * lateral / (2.0 * std::max(to_face, 0.0) + geometry_.bore_length_max));
+  // Keep the bore in view: turning right by t moves its bearing b (atan(x / z) in the camera
+  // frame, right positive) to b - t.
+  const cv::Point2d bore = boreInCamera(odometry);
+  const double bearing = std::atan2(bore.x, bore.y);
+  const double turn =
+      std::clamp(heading + towards_axis, bearing - params_.max_bore_bearing, bearing + params_.max_bore_bearing);
+  command.yaw_rate = std::clamp(params_.heading_gain * turn, -params_.max_yaw_rate, params_.max_yaw_rate);
   if (observation.detected && std::isfinite(observation.position.y))
     command.lift_rate = std::clamp(-params_.lift_gain * (observation.position.y - geometry_.puller_offset_y),
                                    -params_.max_lift_rate, params_.max_lift_rate);
@@ -207,6 +225,8 @@ ApproachCommand ApproachController::update(const ApproachObservation& observatio
       reversed_ += params_.backoff_speed * dt;
       if (reversed_ < params_.backoff_distance)
       {
+        if (line_)
+          return steer(observation, odometry, -params_.backoff_speed);
         command.speed = -params_.backoff_speed;
         return command;
       }

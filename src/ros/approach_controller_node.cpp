@@ -48,6 +48,7 @@ sv::ApproachControllerParams readParams(const ros::NodeHandle& pnh, sv::Geometry
   pnh.param("lookahead", p.lookahead, p.lookahead);
   pnh.param("heading_gain", p.heading_gain, p.heading_gain);
   pnh.param("max_yaw_rate", p.max_yaw_rate, p.max_yaw_rate);
+  pnh.param("max_bore_bearing", p.max_bore_bearing, p.max_bore_bearing);
   pnh.param("line_memory", p.line_memory, p.line_memory);
   pnh.param("max_line_jump", p.max_line_jump, p.max_line_jump);
   pnh.param("max_disagreements", p.max_disagreements, p.max_disagreements);

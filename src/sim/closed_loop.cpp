@@ -202,7 +202,7 @@ TrialResult runTrial(const TrialConfig& config)
     try
     {
       // The oracle needs no image unless one is kept.
-      frame = world.view(step, !config.oracle || config.keep_pictures);
+      frame = world.view(step, !config.oracle || config.keep_pictures || config.on_frame);
     }
     catch (const std::invalid_argument&)
     {
@@ -210,6 +210,8 @@ TrialResult runTrial(const TrialConfig& config)
       break;
     }
     const double time = step * dt;
+    if (config.on_frame)
+      config.on_frame(step, frame, world.camera());
 
     TrackedFrame tracked;
     if (!config.oracle)

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -28,7 +29,7 @@ namespace
 {
 const char* const kUsage =
     "usage: spool_sim [--trials N] [--seed S] [--width W] [--height H] [--rate HZ] [--max-steps N]\n"
-    "                 [--config YAML] [--pictures DIR] [--jobs J] [--oracle]\n"
+    "                 [--config YAML] [--pictures DIR] [--frames DIR] [--jobs J] [--oracle]\n"
     "                 [--no-odometry]\n"
     "  --trials N     trials, seeds S .. S+N-1 (default 10)\n"
     "  --seed S       first trial's seed (default 1)\n"
@@ -39,6 +40,10 @@ const char* const kUsage =
     "  --pictures DIR for each trial not inserted: its first, worst and last frame with the\n"
     "                 overlay; every trial's trajectory in DIR/trials.jsonl, drawn from above in\n"
     "                 DIR/trajectories.png (scripts/plot_sim.py)\n"
+    "  --frames DIR   every frame the camera saw, as spool_render writes a set:\n"
+    "                 DIR/<seed>/frame_%05d.png with its truth in frame_%05d.json, and\n"
+    "                 DIR/<seed>/camera_info.yaml (replay with spool_detect --track\n"
+    "                 --camera-info DIR/<seed>/camera_info.yaml --rate HZ DIR/<seed>)\n"
     "  --jobs J       trials run at once (default 2)\n"
     "  --oracle       drive on the renderer's truth instead of the detector (proves the\n"
     "                 simulation and the controller: must insert every time)\n"
@@ -97,6 +102,25 @@ nlohmann::ordered_json trajectoryJson(const sv::TrialResult& r)
   return path;
 }
 
+/// One frame of --frames, laid out as spool_render writes a set.
+void writeFrame(const std::filesystem::path& dir, int step, const sv::RenderedFrame& frame,
+                const sv::CameraIntrinsics& camera)
+{
+  if (step == 0)
+  {
+    std::filesystem::create_directories(dir);
+    sv::saveCameraInfoYaml((dir / "camera_info.yaml").string(), camera, "spool_sim");
+  }
+  char name[32];
+  std::snprintf(name, sizeof(name), "frame_%05d", step);
+  if (!cv::imwrite((dir / (std::string(name) + ".png")).string(), frame.image))
+    throw std::runtime_error("--frames: cannot write " + (dir / name).string() + ".png");
+  std::ofstream json(dir / (std::string(name) + ".json"));
+  json << sv::groundTruthJson(frame.truth).dump() << "\n";
+  if (!json)
+    throw std::runtime_error("--frames: cannot write " + (dir / name).string() + ".json");
+}
+
 double median(std::vector<double> v)
 {
   if (v.empty())
@@ -108,10 +132,10 @@ double median(std::vector<double> v)
 
 int run(int argc, char** argv)
 {
-  const sv::cli::CommandLine line(
-      argc, argv,
-      {"--trials", "--seed", "--width", "--height", "--rate", "--max-steps", "--config", "--pictures", "--jobs"},
-      kUsage, false, {"--oracle", "--no-odometry"});
+  const sv::cli::CommandLine line(argc, argv,
+                                  {"--trials", "--seed", "--width", "--height", "--rate", "--max-steps", "--config",
+                                   "--pictures", "--frames", "--jobs"},
+                                  kUsage, false, {"--oracle", "--no-odometry"});
   sv::TrialConfig base;
   const int trials = line.positiveInteger("--trials", 100000, 10);
   const std::uint64_t first_seed = line.seed("--seed", 1);
@@ -130,6 +154,7 @@ int run(int argc, char** argv)
   base.keep_pictures = !pictures.empty();
   if (base.keep_pictures)
     std::filesystem::create_directories(pictures);
+  const std::string frames = line.text("--frames");
   const int jobs = line.positiveInteger("--jobs", 64, 2);
 
   std::vector<sv::TrialResult> results(static_cast<std::size_t>(trials));
@@ -144,6 +169,10 @@ int run(int argc, char** argv)
       {
         sv::TrialConfig config = base;
         config.seed = first_seed + static_cast<std::uint64_t>(i);
+        if (!frames.empty())
+          config.on_frame = [dir = std::filesystem::path(frames) / std::to_string(config.seed)](
+                                int step, const sv::RenderedFrame& frame, const sv::CameraIntrinsics& camera)
+          { writeFrame(dir, step, frame, camera); };
         sv::TrialResult r = sv::runTrial(config);
         const std::lock_guard<std::mutex> lock(out);
         std::cout << trialJson(r).dump() << std::endl;

@@ -417,6 +417,30 @@ TEST(SpoolSimCli, OracleTrialsPrintALineEachASummaryAndThePictures)
   fs::remove_all(dir);
 }
 
+TEST(SpoolSimCli, FramesKeepsEveryFrameWithItsTruthAndTheCamera)
+{
+  // A 3-period trial (a timeout) written as spool_render writes a set, for spool_detect to replay.
+  const fs::path dir = fs::temp_directory_path() / ("spool_sim_frames_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const CliRun run =
+      spoolSim("--trials 1 --seed 5 --oracle --width 160 --height 120 --max-steps 3 --frames " + dir.string());
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  EXPECT_EQ(nlohmann::json::parse(run.lines.at(0))["outcome"], "timeout");
+  const fs::path trial = dir / "5";
+  const sv::CameraIntrinsics camera = sv::loadCameraInfoYaml((trial / "camera_info.yaml").string());
+  EXPECT_EQ(cv::Size(camera.width, camera.height), cv::Size(160, 120));
+  for (const char* name : {"frame_00000", "frame_00001", "frame_00002"})
+  {
+    EXPECT_EQ(cv::imread((trial / (std::string(name) + ".png")).string()).size(), cv::Size(160, 120)) << name;
+    std::ifstream json(trial / (std::string(name) + ".json"));
+    const auto truth = nlohmann::json::parse(json);
+    EXPECT_GT(truth["flange"]["r"].get<double>(), 5.0) << name;
+    EXPECT_GT(truth["distance"].get<double>(), 0.8) << name;
+  }
+  EXPECT_FALSE(fs::exists(trial / "frame_00003.png"));
+  fs::remove_all(dir);
+}
+
 TEST(SpoolSimCli, BadOptionsExitTwoNamingTheOption)
 {
   for (const std::string bad : {"--trials 0", "--rate -1", "--width 10 --height 10", "--frobnicate 1"})

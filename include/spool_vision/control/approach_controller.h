@@ -67,7 +67,12 @@ struct ApproachControllerParams
   double slow_down = 1.0;        ///< 1/s: speed = slow_down * depth still to go, clamped to the above
   /// m: the heading aims at the axis this far ahead (smaller converges faster, oscillates more)
   double lookahead = 0.15;
-  double heading_gain = 3.0;   ///< 1/s, yaw rate per rad of heading error (on odometry)
+  double heading_gain = 3.0;  ///< 1/s, yaw rate per rad of heading error (on odometry)
+  /// rad: the heading is never turned so far that the bore's bearing from the camera's optical
+  /// axis exceeds this (a field-of-view constraint, as in visual servoing): beyond it the flange
+  /// is cut by the image's edge and a neighbour fills the frame, and the tracker loses the spool.
+  /// About half the camera's horizontal half-angle (0.17 for a C270-like 44 deg at f = 800 px).
+  double max_bore_bearing = 0.17;
   double max_yaw_rate = 0.25;  ///< rad/s
   /// Weight kept by the bore axis's estimate in the odometry frame per new observation (the
   /// rest goes to the observation; odometry's drift is forgotten at this rate)
@@ -141,6 +146,8 @@ private:
   bool observeLine(const ApproachObservation& observation, const OdometryPose& odometry);
   /// floorErrors() of the estimated line seen from `odometry`.
   void lineErrors(const OdometryPose& odometry, double& lateral, double& heading, double& depth_to_face) const;
+  /// The estimated bore front centre seen from `odometry`: (x, z) in the camera frame, m.
+  cv::Point2d boreInCamera(const OdometryPose& odometry) const;
   ApproachCommand approach(const ApproachObservation& observation, const OdometryPose& odometry);
   ApproachCommand steer(const ApproachObservation& observation, const OdometryPose& odometry, double speed) const;
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,9 @@ struct TrialConfig
   /// Give the tracker the camera's motion between frames from the robot's odometry (cameraMotion),
   /// as the node does with ~odom_frame
   bool odometry_motion = true;
+  /// Called with every frame the camera sees, before the detector reads it (step from 0, the
+  /// camera's intrinsics): how spool_sim --frames records a trial for spool_detect to replay
+  std::function<void(int step, const RenderedFrame& frame, const CameraIntrinsics& camera)> on_frame;
   DetectorParams detector;
   ApproachControllerParams controller;
   ForkliftLimits limits;
