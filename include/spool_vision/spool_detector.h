@@ -61,6 +61,9 @@ public:
   /// The camera the last frame was measured with (the thesis camera when none fit the frame);
   /// the thesis camera at 640x480 before any frame.
   CameraIntrinsics camera() const;
+  /// The camera a frame of `size` is measured with: setCamera()'s when its size matches, else the
+  /// thesis camera scaled to `size` (fallback_focal_length).
+  CameraIntrinsics cameraFor(cv::Size size) const;
 
   /// Intermediate results of the last frame, for overlays and debugging.
   const cv::Mat& preprocessed() const

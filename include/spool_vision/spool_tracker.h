@@ -239,6 +239,25 @@ struct TrackedFrame
   bool full_search = true;   ///< the flange was searched in the whole frame
 };
 
+/// Where the task expects the target spool: the slot the robot was sent to, from its navigation
+/// (a map and the robot's pose in it). Which spool is "the target" is otherwise the detector's
+/// rule, the one nearest the puller reference in the image (DESIGN.md §4), which a heading a few
+/// degrees off, or a start nearer a neighbour's lane than the slot's, turns onto a neighbour.
+struct TargetHint
+{
+  /// m, the target bore's front centre expected in the camera optical frame of the frame given
+  cv::Point3d position;
+  /// m, the target lies within this of `position`: the navigation's error; less than half the
+  /// spacing of spools on the shelf, or a neighbour fits too
+  double radius = 0.15;
+};
+
+/// The flange window of a bore's front centre at `p` (m, camera optical frame) with position
+/// covariance `cov` (m^2) seen through `camera`'s pinhole (undistorted pixels), as
+/// SpoolTracker::flangeWindow() describes it; nullopt when `p` is not ahead of the camera.
+std::optional<FlangeWindow> flangeWindowAt(const Eigen::Vector3d& p, const Eigen::Matrix3d& cov,
+                                           const CameraIntrinsics& camera, const DetectorParams& params);
+
 /// A SpoolDetector followed by a SpoolTracker. While a track holds the spool the flange is
 /// searched only in the tracker's window, with a whole-frame search every
 /// track_full_search_interval frames, and again in the same frame when the window finds nothing.
@@ -259,9 +278,13 @@ public:
   }
 
   /// The frame `image` stamped `stamp` (s); `motion`: the camera's since the last frame, from
-  /// odometry (SpoolTracker::update). Throws as SpoolDetector::detect().
+  /// odometry (SpoolTracker::update). With a `hint` (in this frame's camera frame) every search
+  /// that would take the whole frame takes the hint's window instead (flangeWindowAt with a
+  /// 3 sigma of `radius` each way), so no spool outside it is ever acquired, and a track that
+  /// holds a spool outside it is dropped. Throws as SpoolDetector::detect().
   TrackedFrame process(const cv::Mat& image, PixelFormat format, double stamp,
-                       const std::optional<CameraMotion>& motion = std::nullopt);
+                       const std::optional<CameraMotion>& motion = std::nullopt,
+                       const std::optional<TargetHint>& hint = std::nullopt);
 
 private:
   SpoolDetector detector_;

@@ -170,12 +170,14 @@ ApproachCommand ApproachController::steer(const ApproachObservation& observation
   // (to_face ahead, e + to_face t) and at its back (bore_length_max further) equal and opposite,
   // t = -2 e / (2 to_face + bore_length_max), each then e bore_length_max / (2 to_face +
   // bore_length_max): a 3 mm error left at the end of a run-up misses by 0.5 mm, no back-off needed.
-  // Reversing, only turn parallel to the axis: the back-off then keeps the lateral error it
-  // had instead of adding its heading's share of the distance reversed to it.
+  // Reversing, the same line follower mirrored: the nose turns away from the axis so that the
+  // back-off closes on it as well.
   double towards_axis = 0.0;
   if (speed > 0.0)
     towards_axis = std::atan(-lateral / params_.lookahead);
-  else if (speed == 0.0)
+  else if (speed < 0.0)
+    towards_axis = std::atan(lateral / params_.lookahead);
+  else
     towards_axis = std::atan(-2.0 * lateral / (2.0 * std::max(to_face, 0.0) + geometry_.bore_length_max));
   // Keep the bore in view: turning right by t moves its bearing b (atan(x / z) in the camera
   // frame, right positive) to b - t.

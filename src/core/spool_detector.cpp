@@ -69,14 +69,19 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
   if (geometry_ && geometry_->camera().width == size.width && geometry_->camera().height == size.height)
     return *geometry_;
   using_fallback_ = !(camera_ && camera_->width == size.width && camera_->height == size.height);
-  const CameraIntrinsics camera =
-      using_fallback_ ? CameraIntrinsics::thesisDefault(size.width, size.height, params_.geometry.fallback_focal_length)
-                      : *camera_;
+  const CameraIntrinsics camera = cameraFor(size);
   geometry_.emplace(params_.geometry, camera);
   matcher_ = ConcentricMatcher(params_.matcher, params_.geometry, camera);
   preprocessor_.setParams(params_.preprocess, camera.fy);
   edge_detector_.setUndistortion(camera);
   return *geometry_;
+}
+
+CameraIntrinsics SpoolDetector::cameraFor(cv::Size size) const
+{
+  return camera_ && camera_->width == size.width && camera_->height == size.height
+             ? *camera_
+             : CameraIntrinsics::thesisDefault(size.width, size.height, params_.geometry.fallback_focal_length);
 }
 
 CameraIntrinsics SpoolDetector::camera() const

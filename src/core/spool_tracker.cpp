@@ -659,19 +659,25 @@ std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const Camer
     p = r * p + Eigen::Vector3d(motion->translation[0], motion->translation[1], motion->translation[2]);
     cov = r * cov * r.transpose();
   }
+  return flangeWindowAt(p, cov, camera, params_);
+}
+
+std::optional<FlangeWindow> flangeWindowAt(const Eigen::Vector3d& p, const Eigen::Matrix3d& cov,
+                                           const CameraIntrinsics& camera, const DetectorParams& params)
+{
   const double z = p.z();
   if (!(z > 0.05))
     return std::nullopt;
   const double f = std::max(camera.fx, camera.fy);
   const double sigma_across = std::sqrt(std::max(cov(0, 0), cov(1, 1))) / z;  // rad
   const double sigma_depth = std::sqrt(cov(2, 2)) / z;                        // relative
-  const double rim = params_.geometry.flange_diameter / 2.0;
+  const double rim = params.geometry.flange_diameter / 2.0;
   FlangeWindow window;
   window.centre = {camera.fx * p.x() / z + camera.cx, camera.fy * p.y() / z + camera.cy};
   window.radius = camera.fy * rim / z;
   window.centre_margin =
-      3.0 * f * sigma_across + f * (rim / z) * (rim / z) * std::sin(params_.matcher.max_view_angle) + 2.0;
-  window.radius_margin = window.radius * (3.0 * sigma_depth + kRadiusSpread);
+      3.0 * f * sigma_across + f * (rim / z) * (rim / z) * std::sin(params.matcher.max_view_angle) + 2.0;
+  window.radius_margin = window.radius * (3.0 * sigma_depth + SpoolTracker::kRadiusSpread);
   return window;
 }
 
@@ -684,9 +690,24 @@ void TrackingDetector::setParams(const DetectorParams& params)
 }
 
 TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format, double stamp,
-                                       const std::optional<CameraMotion>& motion)
+                                       const std::optional<CameraMotion>& motion, const std::optional<TargetHint>& hint)
 {
   TrackedFrame frame;
+  std::optional<FlangeWindow> whole;  // what "the whole frame" is: all of it, or the hint's window
+  auto offHint = [&](const cv::Point3d& p)
+  { return std::hypot(p.x - hint->position.x, p.y - hint->position.y, p.z - hint->position.z) > hint->radius; };
+  if (hint)
+  {
+    const TrackedSpool& held = tracker_.current();
+    if ((held.state == TrackState::kTracking || held.state == TrackState::kCoasting) && offHint(held.position))
+      tracker_.reset();  // following another spool than the task's
+    const double sigma = hint->radius / 3.0;
+    whole = flangeWindowAt({hint->position.x, hint->position.y, hint->position.z},
+                           Eigen::Matrix3d::Identity() * sigma * sigma, detector_.cameraFor(image.size()),
+                           detector_.params());
+  }
+  // Not the task's spool: a neighbour in a wide window (a young track's), or a rim at another depth.
+  auto taskless = [&](const SpoolDetection& d) { return hint && d.detected && offHint(d.position); };
   const int interval = detector_.params().tracker.full_search_interval;
   std::optional<FlangeWindow> window;
   if (since_full_search_ + 1 < interval)
@@ -696,12 +717,19 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
     frame.raw = detector_.detect(image, format, window);
     // Nothing where the spool should be: it moved more than the model allows, or the window
     // was wrong. The whole frame decides, in this frame.
-    frame.full_search = !frame.raw.detected;
+    frame.full_search = !frame.raw.detected || taskless(frame.raw);
   }
   if (!window || frame.full_search)
   {
     const double windowed_ms = window ? frame.raw.time_ms : 0.0;
-    frame.raw = detector_.detect(image, format);
+    // A hint behind the camera leaves nothing that can be the target.
+    frame.raw = hint && !whole ? SpoolDetection() : detector_.detect(image, format, whole);
+    if (taskless(frame.raw))
+    {
+      const double ms = frame.raw.time_ms;
+      frame.raw = SpoolDetection();
+      frame.raw.time_ms = ms;
+    }
     frame.raw.time_ms += windowed_ms;
   }
   since_full_search_ = frame.full_search ? 0 : since_full_search_ + 1;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
@@ -125,9 +126,9 @@ T readRosOption(const ros::NodeHandle& pnh, const std::string& key, const T& fal
 
 const std::set<std::string>& SpoolDetectorRos::rosKeys()
 {
-  static const std::set<std::string> keys = {"image_transport",   "queue_size",      "min_rate",   "max_rate",
-                                             "diagnostic_period", "use_camera_info", "publish_tf", "spool_frame",
-                                             "rectified",         "track",           "odom_frame", "odom_timeout"};
+  static const std::set<std::string> keys = {
+      "image_transport", "queue_size", "min_rate", "max_rate",   "diagnostic_period", "use_camera_info",   "publish_tf",
+      "spool_frame",     "rectified",  "track",    "odom_frame", "odom_timeout",      "target_hint_radius"};
   return keys;
 }
 
@@ -157,8 +158,13 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   if (!odom_frame_.empty() && !track_)
     ROS_WARN("spool_detector: odom_frame '%s' is unused: only the tracker (track:=true) takes the camera's motion",
              odom_frame_.c_str());
-  if (!odom_frame_.empty() && track_)
+  target_hint_radius_ = readRosOption<double>(pnh_, "target_hint_radius", 0.15, "a number of metres in (0, 1]");
+  if (!(target_hint_radius_ > 0.0 && target_hint_radius_ <= 1.0))
+    throw ParamError("target_hint_radius", std::to_string(target_hint_radius_) +
+                                               " is out of range; allowed: metres in (0, 1] (config/node.yaml)");
+  if (track_)
   {
+    // TF for odom_frame's camera motion and for target hints in another frame than the camera's.
     tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
     // Its own spinner thread: the image callback may wait for a transform while it runs.
     tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_);
@@ -184,7 +190,10 @@ SpoolDetectorRos::SpoolDetectorRos(const ros::NodeHandle& nh, const ros::NodeHan
   pose_pub_ = nh_.advertise<SpoolPose>("spool_pose", 10);
   pose_stamped_pub_ = pnh_.advertise<geometry_msgs::PoseStamped>("pose", 10);
   if (track_)
+  {
     pose_covariance_pub_ = pnh_.advertise<geometry_msgs::PoseWithCovarianceStamped>("pose_with_covariance", 10);
+    hint_sub_ = nh_.subscribe("target_hint", 1, &SpoolDetectorRos::hintCallback, this);
+  }
   marker_pub_ = pnh_.advertise<visualization_msgs::Marker>("marker", 10);
   debug_pub_ = private_it_.advertise("debug_image", 1);
   if (publish_tf)
@@ -457,41 +466,91 @@ std::pair<cv::Mat, PixelFormat> SpoolDetectorRos::decodeCompressed(const sensor_
   throw std::invalid_argument("decoded image has an unsupported depth (format '" + msg.format + "')");
 }
 
-std::optional<CameraMotion> SpoolDetectorRos::cameraMotion(const std_msgs::Header& header)
+void SpoolDetectorRos::hintCallback(const geometry_msgs::PointStampedConstPtr& msg)
 {
-  if (!tf_buffer_)
+  const std::lock_guard<std::mutex> lock(hint_mutex_);
+  const geometry_msgs::Point& p = msg->point;
+  if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+    hint_ = *msg;
+  else
+    hint_.reset();  // a NaN point withdraws the hint
+}
+
+std::optional<TargetHint> SpoolDetectorRos::targetHint(const std_msgs::Header& header)
+{
+  std::optional<geometry_msgs::PointStamped> hint;
+  {
+    const std::lock_guard<std::mutex> lock(hint_mutex_);
+    hint = hint_;
+  }
+  if (!hint)
     return std::nullopt;
-  const std::optional<ros::Time> before = last_motion_stamp_;
-  last_motion_stamp_ = header.stamp;
-  if (!before || header.stamp <= *before)
-    return std::nullopt;  // the first frame, or a bag played again (the tracker restarts)
+  const geometry_msgs::Point& p = hint->point;
+  if (hint->header.frame_id.empty() || hint->header.frame_id == header.frame_id)
+    return TargetHint{{p.x, p.y, p.z}, target_hint_radius_};
+  // The hint's frame is fixed in the world (map, odom): where its point is seen from the camera
+  // at this frame's stamp.
+  const std::optional<CameraMotion> to_camera = waitForTransform(
+      [&] { return tf_buffer_->lookupTransform(header.frame_id, hint->header.frame_id, header.stamp).transform; },
+      "target_hint " + hint->header.frame_id,
+      "no target hint in the camera frame for this frame (" + hint->header.frame_id + " to " + header.frame_id +
+          "); the whole frame is searched. Check that TF joins the two frames",
+      window_no_hint_);
+  if (!to_camera)
+    return std::nullopt;
+  const cv::Vec3d at = to_camera->rotation * cv::Vec3d(p.x, p.y, p.z) + to_camera->translation;
+  return TargetHint{{at[0], at[1], at[2]}, target_hint_radius_};
+}
+
+template <typename Lookup>
+std::optional<CameraMotion> SpoolDetectorRos::waitForTransform(const Lookup& lookup, const std::string& kind,
+                                                               const std::string& warning, int& failures)
+{
   // A wall-clock wait: on sim time the clock may stand still until this frame is answered.
   const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(odom_timeout_);
   while (true)
   {
     try
     {
-      return toCameraMotion(
-          tf_buffer_->lookupTransform(header.frame_id, header.stamp, header.frame_id, *before, odom_frame_).transform);
+      return toCameraMotion(lookup());
     }
     catch (const tf2::TransformException& e)
     {
       if (ros::WallTime::now() >= deadline)
       {
-        ++window_no_motion_;
+        ++failures;
         // Throttled on the wall clock, per kind, as input errors are: ROS_WARN_THROTTLE stays
         // silent for its first period of sim time, which can be all of a short bag.
-        if (shouldLogError("odom_frame " + odom_frame_, e.what()))
-          ROS_WARN(
-              "spool_detector: no camera motion from TF for this frame (%s from %.3f to %.3f s through "
-              "odom_frame %s): %s. The tracker predicts without odometry; check that odometry's TF "
-              "reaches the camera frame, or raise odom_timeout",
-              header.frame_id.c_str(), before->toSec(), header.stamp.toSec(), odom_frame_.c_str(), e.what());
+        if (shouldLogError(kind, e.what()))
+          ROS_WARN("spool_detector: %s: %s", warning.c_str(), e.what());
         return std::nullopt;
       }
     }
     ros::WallDuration(0.001).sleep();
   }
+}
+
+std::optional<CameraMotion> SpoolDetectorRos::cameraMotion(const std_msgs::Header& header)
+{
+  if (!tf_buffer_ || odom_frame_.empty())
+    return std::nullopt;
+  const std::optional<ros::Time> before = last_motion_stamp_;
+  last_motion_stamp_ = header.stamp;
+  if (!before || header.stamp <= *before)
+    return std::nullopt;  // the first frame, or a bag played again (the tracker restarts)
+  char range[64];
+  std::snprintf(range, sizeof(range), "from %.3f to %.3f s", before->toSec(), header.stamp.toSec());
+  return waitForTransform(
+      [&] {
+        return tf_buffer_->lookupTransform(header.frame_id, header.stamp, header.frame_id, *before, odom_frame_)
+            .transform;
+      },
+      "odom_frame " + odom_frame_,
+      "no camera motion from TF for this frame (" + header.frame_id + " " + range + " through odom_frame " +
+          odom_frame_ +
+          "). The tracker predicts without odometry; check that odometry's TF reaches the camera frame, "
+          "or raise odom_timeout",
+      window_no_motion_);
 }
 
 void SpoolDetectorRos::processFrame(const std_msgs::Header& header, const cv::Mat& image, PixelFormat format,
@@ -500,7 +559,7 @@ void SpoolDetectorRos::processFrame(const std_msgs::Header& header, const cv::Ma
   updateCamera(info, image.cols, image.rows);
   TrackedFrame frame;
   if (track_)
-    frame = tracking_.process(image, format, header.stamp.toSec(), cameraMotion(header));
+    frame = tracking_.process(image, format, header.stamp.toSec(), cameraMotion(header), targetHint(header));
   else
     frame.raw = frame.published = detector().detect(image, format);
   const SpoolDetection& detection = frame.published;
@@ -686,10 +745,15 @@ void SpoolDetectorRos::diagnoseProcessing(diagnostic_updater::DiagnosticStatusWr
     status.add("Track state", toString(track.state));
     status.add("Track age (frames)", track.age);
     status.add("Refused detections", window_rejected_);
-    if (tf_buffer_)
+    if (!odom_frame_.empty())
       status.add("Frames without camera motion", window_no_motion_);
+    {
+      const std::lock_guard<std::mutex> lock(hint_mutex_);
+      status.add("Target hint", hint_ ? "given in " + hint_->header.frame_id : std::string("none"));
+    }
+    status.add("Frames without the target hint from TF", window_no_hint_);
   }
-  window_no_motion_ = 0;
+  window_no_motion_ = window_no_hint_ = 0;
 
   window_frames_ = window_detected_ = window_failed_ = window_rejected_ = 0;
   window_detector_ms_ = window_detector_max_ms_ = window_callback_ms_ = 0.0;

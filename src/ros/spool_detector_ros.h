@@ -5,6 +5,7 @@
 
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
@@ -13,6 +14,7 @@
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <diagnostic_updater/update_functions.h>
 #include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/PointStamped.h>
 #include <image_transport/image_transport.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
@@ -81,6 +83,17 @@ private:
   /// TF through odom_frame (waiting up to ~odom_timeout wall seconds for it); nullopt on the first
   /// frame, after a time jump, or when TF has no transform (logged, counted in the diagnostics).
   std::optional<CameraMotion> cameraMotion(const std_msgs::Header& header);
+  /// The latest ~target_hint (geometry_msgs/PointStamped; a NaN point withdraws it).
+  void hintCallback(const geometry_msgs::PointStampedConstPtr& msg);
+  /// The latest target hint in the camera frame at this frame's stamp (its point as it is when
+  /// given in the camera's frame or none, else through TF), with ~target_hint_radius; nullopt
+  /// without a hint or when TF has no transform (logged, counted in the diagnostics).
+  std::optional<TargetHint> targetHint(const std_msgs::Header& header);
+  /// `lookup`'s transform as a CameraMotion, retried until ~odom_timeout wall seconds pass; then
+  /// nullopt, `failures` counted and `warning` logged once per throttle period of `kind`.
+  template <typename Lookup>
+  std::optional<CameraMotion> waitForTransform(const Lookup& lookup, const std::string& kind,
+                                               const std::string& warning, int& failures);
   void processFrame(const std_msgs::Header& header, const cv::Mat& image, PixelFormat format,
                     const sensor_msgs::CameraInfoConstPtr& info);
   /// Gives the detector the camera `info` describes for an image of this size (or the fallback).
@@ -130,10 +143,15 @@ private:
   std::string spool_frame_;
   std::string odom_frame_;  ///< empty: no camera motion for the tracker
   double odom_timeout_ = 0.05;
-  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< with odom_frame_ only
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;  ///< with track_ only
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::optional<ros::Time> last_motion_stamp_;
   int window_no_motion_ = 0;
+  ros::Subscriber hint_sub_;  ///< target_hint, with track_ only
+  std::mutex hint_mutex_;
+  std::optional<geometry_msgs::PointStamped> hint_;
+  double target_hint_radius_ = 0.15;
+  int window_no_hint_ = 0;
   std::optional<ros::WallTime>
       last_motion_warning_;  ///< tracked frames after the first without a camera motion from TF
   bool frame_id_missing_reported_ = false;

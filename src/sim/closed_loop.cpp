@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "spool_vision/eval/evaluation.h"
@@ -110,6 +111,9 @@ TrialStart drawTrialStart(std::uint64_t seed)
   start.actuation.odometry_scale = 1.0 + rng.uniform(-0.01, 0.01);
   start.actuation.gyro_scale = 1.0 + rng.uniform(-0.01, 0.01);
   start.scene_seed = mix(seed, 2);
+  cv::RNG navigation(mix(seed, 4));
+  start.navigation_error.x = navigation.uniform(-0.05, 0.05);
+  start.navigation_error.y = navigation.uniform(-0.05, 0.05);
   return start;
 }
 
@@ -174,6 +178,8 @@ TrialResult runTrial(const TrialConfig& config)
     throw std::invalid_argument("spool_sim: rate must be a finite number of Hz > 0");
   if (config.max_steps < 1)
     throw std::invalid_argument("spool_sim: max_steps must be >= 1");
+  if (!(config.target_hint_radius >= 0.0) || !std::isfinite(config.target_hint_radius))
+    throw std::invalid_argument("spool_sim: target_hint_radius must be a finite number of m >= 0");
   const double dt = 1.0 / config.rate;
   ApproachWorld world(config.seed, config.size, config.detector.geometry, config.limits);
   TrialResult result;
@@ -190,6 +196,8 @@ TrialResult runTrial(const TrialConfig& config)
   bool pushed = false;
   bool held_at_end = false;
   OdometryPose last_odometry = world.robot().odometry();
+  const OdometryPose start_odometry = last_odometry;
+  cv::Vec3d hint_at_start;  // the navigation's slot in the start's camera frame
   for (int step = 0; step < config.max_steps; ++step)
   {
     const ForkliftState state = world.robot().state();
@@ -219,7 +227,17 @@ TrialResult runTrial(const TrialConfig& config)
       std::optional<CameraMotion> motion;
       if (config.odometry_motion && step > 0)
         motion = cameraMotion(last_odometry, world.robot().odometry());
-      tracked = detector.process(frame.image, PixelFormat::kBgr8, time, motion);
+      std::optional<TargetHint> hint;
+      if (config.target_hint_radius > 0.0)
+      {
+        if (step == 0)
+          hint_at_start = {frame.truth.position.x + result.start.navigation_error.x, frame.truth.position.y,
+                           frame.truth.position.z + result.start.navigation_error.y};
+        const CameraMotion since_start = cameraMotion(start_odometry, world.robot().odometry());
+        const cv::Vec3d at = since_start.rotation * hint_at_start + since_start.translation;
+        hint = TargetHint{{at[0], at[1], at[2]}, config.target_hint_radius};
+      }
+      tracked = detector.process(frame.image, PixelFormat::kBgr8, time, motion, hint);
     }
     last_odometry = world.robot().odometry();
     const ApproachObservation observation = config.oracle ? observeTruth(frame.truth) : observePublished(tracked);

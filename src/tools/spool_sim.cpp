@@ -30,7 +30,7 @@ namespace
 const char* const kUsage =
     "usage: spool_sim [--trials N] [--seed S] [--width W] [--height H] [--rate HZ] [--max-steps N]\n"
     "                 [--config YAML] [--pictures DIR] [--frames DIR] [--jobs J] [--oracle]\n"
-    "                 [--no-odometry]\n"
+    "                 [--no-odometry] [--target-hint M]\n"
     "  --trials N     trials, seeds S .. S+N-1 (default 10)\n"
     "  --seed S       first trial's seed (default 1)\n"
     "  --width W --height H  camera mode (default 640x480)\n"
@@ -49,6 +49,9 @@ const char* const kUsage =
     "                 simulation and the controller: must insert every time)\n"
     "  --no-odometry  do not give the tracker the camera's motion from the robot's odometry\n"
     "                 (the node without ~odom_frame)\n"
+    "  --target-hint M  tell the tracker where the slot is (its navigation's guess, up to 5 cm\n"
+    "                 off), within M m (e.g. 0.15): only a spool there is ever followed\n"
+    "                 (default: none, the detector's own target rule)\n"
     "Prints one JSON line per trial, then a summary line {\"summary\": ...}. Exit 0 when every\n"
     "trial ran (whatever its outcome), 1 on an error, 2 on a bad command line.\n";
 
@@ -134,7 +137,7 @@ int run(int argc, char** argv)
 {
   const sv::cli::CommandLine line(argc, argv,
                                   {"--trials", "--seed", "--width", "--height", "--rate", "--max-steps", "--config",
-                                   "--pictures", "--frames", "--jobs"},
+                                   "--pictures", "--frames", "--jobs", "--target-hint"},
                                   kUsage, false, {"--oracle", "--no-odometry"});
   sv::TrialConfig base;
   const int trials = line.positiveInteger("--trials", 100000, 10);
@@ -147,6 +150,7 @@ int run(int argc, char** argv)
   base.max_steps = line.positiveInteger("--max-steps", 100000, 300);
   base.oracle = line.has("--oracle");
   base.odometry_motion = !line.has("--no-odometry");
+  base.target_hint_radius = line.text("--target-hint").empty() ? 0.0 : line.positiveNumber("--target-hint", 0.0);
   const std::string config = line.text("--config");
   if (!config.empty())
     sv::loadParamsYaml(config, base.detector);
@@ -235,6 +239,7 @@ int run(int argc, char** argv)
   summary["size"] = std::to_string(base.size.width) + "x" + std::to_string(base.size.height);
   summary["controller"] = base.oracle ? "oracle" : "vision";
   summary["odometry_motion"] = base.odometry_motion;
+  summary["target_hint_radius"] = base.target_hint_radius;
   summary["outcomes"] = outcomes;
   summary["inserted_share"] = static_cast<double>(outcomes["inserted"]) / trials;
   summary["median_time_to_insert"] = times.empty() ? nlohmann::json() : nlohmann::json(median(times));

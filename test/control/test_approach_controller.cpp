@@ -255,26 +255,29 @@ TEST(ApproachController, KeepsTheBoreInViewWhileCrossingOverToItsAxis)
   EXPECT_GT(widestBearingOfAnApproach(p, lateral), 22.0 * kDeg);
 }
 
-TEST(ApproachController, BacksOffParallelToTheAxis)
+TEST(ApproachController, BacksOffClosingOnTheAxisWithTheBoreInView)
 {
-  // Held at the standoff 5 cm beside the axis and turned 8 deg towards it, `aligned` never comes:
-  // the back-off turns parallel to the axis while reversing, so the next run-up starts no
-  // further from the axis (reversing straight would add 0.3 m sin 8 deg = 4 cm).
+  // Held at the standoff 5 cm beside the axis and turned 8 deg towards it, `aligned` never comes.
+  // Reversing straight would add 0.3 m sin 8 deg = 4 cm to the lateral error; the back-off
+  // follows the axis line in reverse (the nose turned away from it), so the next run-up starts
+  // nearer the axis, and the bore stays in view all the while.
   sv::ApproachControllerParams p;
   p.max_retries = 1;
   sv::ApproachController controller{p, sv::GeometryParams()};
   sv::OdometryPose odometry;
   odometry.x = 0.05;
   odometry.heading = -8.0 * kDeg;
-  const double bore_z = p.standoff_depth;
   int reversing = 0;
+  double widest = 0.0;
   for (int step = 0; step < 200 && controller.retries() == 0; ++step)
   {
-    const sv::ApproachCommand c = controller.update(boreSeenFrom(odometry, bore_z), odometry, kDt);
+    const sv::ApproachObservation o = boreSeenFrom(odometry, p.standoff_depth);
+    widest = std::max(widest, std::abs(std::atan2(o.position.x, o.position.z)));
+    const sv::ApproachCommand c = controller.update(o, odometry, kDt);
     reversing += c.speed < 0.0 ? 1 : 0;
     drive(c, odometry);
   }
   ASSERT_GT(reversing * kDt * p.backoff_speed, 0.9 * p.backoff_distance);
-  EXPECT_NEAR(odometry.heading, 0.0, 2.0 * kDeg);
-  EXPECT_LT(odometry.x, 0.05 + 0.005);
+  EXPECT_LT(odometry.x, 0.04);
+  EXPECT_LT(widest, p.max_bore_bearing + p.max_yaw_rate * kDt);
 }

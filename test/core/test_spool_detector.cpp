@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "spool_vision/spool_detector.h"
+#include "spool_vision/spool_tracker.h"
 #include "synthetic.h"
 
 using spool_vision::CameraIntrinsics;
@@ -320,4 +321,50 @@ TEST(SpoolDetector, AWindowAroundTheSpoolMeasuresItAsTheWholeFrameDoes)
   const cv::Mat& pre = detector.preprocessed();
   EXPECT_EQ(cv::countNonZero(pre(cv::Rect(600, 0, 40, 480))), 0);
   EXPECT_GT(cv::countNonZero(pre(cv::Rect(cvRound(whole.flange.x) - 5, cvRound(whole.flange.y) - 5, 10, 10))), 0);
+}
+
+TEST(TrackingDetector, ATargetHintPicksTheTasksSpoolAmongNeighbours)
+{
+  // Two spools 1 m ahead: one 10 cm left of the puller (the image's nearest: the detector's own
+  // target) and the slot the robot was sent to, 28 cm right. The hint puts the slot 4 cm off
+  // its truth (the navigation's error) within 15 cm.
+  const DrawnSpool near = spoolAt(kVga, 1.0, -0.10, 0.06);
+  const DrawnSpool slot = spoolAt(kVga, 1.0, 0.28, 0.06);
+  const cv::Mat image = drawScene({640, 480}, {near, slot});
+  spool_vision::TrackingDetector without;
+  without.detector().setCamera(kVga);
+  const spool_vision::TrackedFrame own = without.process(image, PixelFormat::kBgr8, 0.0);
+  ASSERT_TRUE(own.raw.detected);
+  EXPECT_NEAR(own.raw.flange.x, near.x, 2.0);
+
+  spool_vision::TrackingDetector hinted;
+  hinted.detector().setCamera(kVga);
+  const spool_vision::TargetHint hint{{0.28 + 0.04, 0.06, 1.0 - 0.03}, 0.15};
+  // Frames 1 s apart: a young track's window then spans both spools; the hint still decides.
+  for (int i = 0; i < 4; ++i)
+  {
+    const spool_vision::TrackedFrame f = hinted.process(image, PixelFormat::kBgr8, i * 1.0, std::nullopt, hint);
+    ASSERT_TRUE(f.raw.detected) << i;
+    EXPECT_NEAR(f.raw.flange.x, slot.x, 2.0) << i;
+  }
+  EXPECT_EQ(hinted.tracker().current().state, spool_vision::TrackState::kTracking);
+  EXPECT_NEAR(hinted.tracker().current().position.x, 0.28, 0.01);
+
+  // A track already on the neighbour when the hint comes is dropped; the slot is taken instead.
+  for (int i = 1; i < 3; ++i)
+    without.process(image, PixelFormat::kBgr8, i / 30.0);
+  ASSERT_EQ(without.tracker().current().state, spool_vision::TrackState::kTracking);
+  ASSERT_NEAR(without.tracker().current().position.x, -0.10, 0.01);
+  for (int i = 3; i < 6; ++i)
+    without.process(image, PixelFormat::kBgr8, i / 30.0, std::nullopt, hint);
+  EXPECT_EQ(without.tracker().current().state, spool_vision::TrackState::kTracking);
+  EXPECT_NEAR(without.tracker().current().position.x, 0.28, 0.01);
+
+  // A hint where no spool is (between the two, or behind the camera): nothing is taken.
+  spool_vision::TrackingDetector empty;
+  empty.detector().setCamera(kVga);
+  for (const cv::Point3d& at : {cv::Point3d(0.09, 0.06, 1.0), cv::Point3d(0.0, 0.06, -1.0)})
+    EXPECT_FALSE(
+        empty.process(image, PixelFormat::kBgr8, 0.0, std::nullopt, spool_vision::TargetHint{at, 0.05}).raw.detected)
+        << at;
 }

@@ -443,7 +443,8 @@ TEST(SpoolSimCli, FramesKeepsEveryFrameWithItsTruthAndTheCamera)
 
 TEST(SpoolSimCli, BadOptionsExitTwoNamingTheOption)
 {
-  for (const std::string bad : {"--trials 0", "--rate -1", "--width 10 --height 10", "--frobnicate 1"})
+  for (const std::string bad :
+       {"--trials 0", "--rate -1", "--width 10 --height 10", "--frobnicate 1", "--target-hint -0.1"})
   {
     const CliRun run = spoolSim(bad);
     EXPECT_EQ(run.exit_code, 2) << bad << ": " << run.errors;

@@ -37,13 +37,17 @@ struct TrialStart
   ForkliftState robot;
   ActuationError actuation;
   std::uint64_t scene_seed = 0;  ///< randomHardScene's seed: the shelf, lamps, faces, clutter
+  /// m, where the robot's navigation puts the slot's bore off the truth (x sideways, z ahead, in
+  /// the start's camera frame): the target hint's error (TrialConfig::target_hint_radius)
+  cv::Point2d navigation_error;
 };
 
 /// A start 0.9-1.2 m in front of the slot and up to 15 cm beside it, the spool's axis turned up to
 /// 5 deg from the lane (the renderer turns the shelf with the spool: the robot's place turns about
 /// the bore instead), the heading up to 10 deg off the bearing of the bore, the lift up to 2 cm off
 /// the bore's height, speed and yaw-rate scale errors of up to 3%
-/// and 2% noise per period. Deterministic in `seed`.
+/// and 2% noise per period; the navigation's error on the slot's place up to 5 cm each way (its own
+/// stream: the other draws are those of the seed without it). Deterministic in `seed`.
 TrialStart drawTrialStart(std::uint64_t seed);
 
 struct TrialConfig
@@ -59,6 +63,10 @@ struct TrialConfig
   /// Give the tracker the camera's motion between frames from the robot's odometry (cameraMotion),
   /// as the node does with ~odom_frame
   bool odometry_motion = true;
+  /// m, > 0: the tracker gets a TargetHint of this radius each frame, the slot's bore where the
+  /// robot's navigation puts it at the start (TrialStart::navigation_error off the truth), carried
+  /// into each frame's camera frame by the odometry; 0: none (the detector's own target rule)
+  double target_hint_radius = 0.0;
   /// Called with every frame the camera sees, before the detector reads it (step from 0, the
   /// camera's intrinsics): how spool_sim --frames records a trial for spool_detect to replay
   std::function<void(int step, const RenderedFrame& frame, const CameraIntrinsics& camera)> on_frame;
