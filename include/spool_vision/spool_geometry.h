@@ -50,9 +50,9 @@ public:
   /// max(1.5 px, 1% of the radius) off (three times that in the first pass) is left out (the back flange's crescent
   /// beside an oblique rim, a neighbour touching it). Unlike the ellipse's centre this uses whatever arc shows and the
   /// rim's size and eccentricity too. False (outputs untouched) with fewer than 30 points in the band or without
-  /// convergence.
+  /// convergence. `support`, if given, gets how many of the points used lie within the band at the result.
   bool fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Point2d& centre, cv::Point3d& position,
-                  cv::Vec3d& axis) const;
+                  cv::Vec3d& axis, int* support = nullptr) const;
 
   /// The point at `depth` (m) seen at pixel (u, v), camera optical frame (pinhole).
   cv::Point3d backProject(double u, double v, double depth) const;
@@ -91,6 +91,10 @@ public:
   void measure(SpoolDetection& detection, const std::vector<cv::Point2f>& rim = {}) const;
 
 private:
+  // fitRimPose() from rimPose()'s pose in `d` and from the flange circle's size; keeps the one
+  // more of `rim` supports.
+  void refineOnRim(const std::vector<cv::Point2f>& rim, SpoolDetection& d) const;
+
   GeometryParams params_;
   CameraIntrinsics camera_;
 };

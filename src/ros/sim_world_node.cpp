@@ -7,7 +7,8 @@
 // active on `approach_status` (actionlib_msgs/GoalStatusArray, the action server's status), then
 // per control period: publishes the frame its camera sees (`image_raw` + `camera_info`,
 // image_transport's CameraPublisher; raw with the C270-like lens's D) and `odom`
-// (nav_msgs/Odometry with the drive's errors), waits (wall time, ~response_timeout) for the
+// (nav_msgs/Odometry with the drive's errors; before the first frame, the latched `target_hint`:
+// the slot as the robot's navigation knows it, in odom), waits (wall time, ~response_timeout) for the
 // controller's whole answer to it (`cmd_vel`, `lift_velocity` and the action's feedback on
 // `approach_feedback`: topics arrive in no fixed order, so all three are awaited), drives 1/~rate s
 // on it and advances the clock. A push (the feedback's phase `insert`, or `insert`) is judged on
@@ -26,6 +27,7 @@
 
 #include <actionlib_msgs/GoalStatusArray.h>
 #include <cv_bridge/cv_bridge.h>
+#include <geometry_msgs/PointStamped.h>
 #include <geometry_msgs/Twist.h>
 #include <image_transport/image_transport.h>
 #include <nav_msgs/Odometry.h>
@@ -34,6 +36,7 @@
 #include <sensor_msgs/image_encodings.h>
 #include <std_msgs/Empty.h>
 #include <std_msgs/Float64.h>
+#include <tf2/LinearMath/Transform.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 
@@ -62,6 +65,7 @@ struct SimWorldParams
   double response_timeout = 5.0;  ///< wall s to wait for the controller's answer to a frame
   std::string frame_id = "sim_camera_optical";
   double puller_offset_y = sv::GeometryParams{}.puller_offset_y;
+  bool target_hint = true;  ///< publish the slot where the navigation puts it (target_hint, odom)
 };
 
 template <typename T>
@@ -97,6 +101,8 @@ SimWorldParams readParams(const ros::NodeHandle& pnh)
   p.response_timeout = readBounded(pnh, "response_timeout", p.response_timeout, 0.01, 600.0);
   p.puller_offset_y = readBounded(pnh, "puller_offset_y", p.puller_offset_y, -1.0, 1.0);
   pnh.param("frame_id", p.frame_id, p.frame_id);
+  if (pnh.hasParam("target_hint") && !pnh.getParam("target_hint", p.target_hint))
+    throw sv::ParamError("target_hint", "has the wrong type; set true or false (config/sim_world.yaml)");
   return p;
 }
 
@@ -132,6 +138,8 @@ public:
     mount.transform.rotation.w = 0.5;
     static_tf_.sendTransform(mount);
     outcome_pub_ = pnh.advertise<spool_vision::SimTrialOutcome>("outcome", 1, true);
+    if (params_.target_hint)
+      hint_pub_ = nh.advertise<geometry_msgs::PointStamped>("target_hint", 1, true);
     cmd_sub_ = nh.subscribe("cmd_vel", 10, &SimWorldNode::onCmdVel, this);
     lift_sub_ = nh.subscribe("lift_velocity", 10, &SimWorldNode::onLift, this);
     insert_sub_ = nh.subscribe("insert", 10, &SimWorldNode::onInsert, this);
@@ -201,6 +209,8 @@ private:
         break;
       }
       const Answers before = answers();
+      if (step == 0 && params_.target_hint)
+        publishTargetHint(frame);
       publishFrame(frame);
       outcome.steps = static_cast<std::uint32_t>(step + 1);
       const Answers after = awaitAnswer(before);
@@ -223,6 +233,28 @@ private:
     ROS_INFO("spool_sim_world: seed %d: %s after %u frames (time to insert %.1f s, misses %.1f/%.1f mm, t_f %.2f mm)",
              params_.seed, outcome.outcome.c_str(), outcome.steps, outcome.time_to_insert, 1e3 * outcome.front_miss,
              1e3 * outcome.back_miss, 1e3 * outcome.tolerance);
+  }
+
+  /// The slot the robot was sent to, as its navigation knows it: the target's bore front centre,
+  /// off by the trial's navigation error (TrialStart::navigation_error, as spool_sim
+  /// --target-hint), fixed in odom. Latched: the detector follows only a spool there.
+  void publishTargetHint(const sv::RenderedFrame& frame)
+  {
+    const cv::Point2d error = world_.start().navigation_error;
+    const tf2::Vector3 in_camera(frame.truth.position.x + error.x, frame.truth.position.y,
+                                 frame.truth.position.z + error.y);
+    const tf2::Transform mount(tf2::Quaternion(-0.5, 0.5, -0.5, 0.5));  // as the static TF above
+    const sv::OdometryPose& o = world_.robot().odometry();
+    const tf2::Transform base(tf2::Quaternion(0.0, 0.0, std::sin(-0.5 * o.heading), std::cos(-0.5 * o.heading)),
+                              tf2::Vector3(o.z, -o.x, 0.0));  // as publishFrame's odom
+    const tf2::Vector3 in_odom = base * (mount * in_camera);
+    geometry_msgs::PointStamped hint;
+    hint.header.stamp = time_;
+    hint.header.frame_id = kOdomFrame;
+    hint.point.x = in_odom.x();
+    hint.point.y = in_odom.y();
+    hint.point.z = in_odom.z();
+    hint_pub_.publish(hint);
   }
 
   void publishFrame(const sv::RenderedFrame& frame)
@@ -362,7 +394,7 @@ private:
   sv::ApproachWorld world_;
   image_transport::ImageTransport it_;
   sensor_msgs::CameraInfo info_;
-  ros::Publisher clock_pub_, odom_pub_, outcome_pub_;
+  ros::Publisher clock_pub_, odom_pub_, outcome_pub_, hint_pub_;
   tf2_ros::TransformBroadcaster tf_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
   image_transport::CameraPublisher camera_pub_;

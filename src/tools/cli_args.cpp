@@ -54,7 +54,10 @@ CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& key
   }
   for (const auto& [key, option] : options)
     if (option->count() > 0)
+    {
       options_[key] = values[key];
+      every_[key] = option->results();
+    }
   for (const auto& [flag, option] : given_flags)
     if (option->count() > 0)
       flags_.insert(flag);
@@ -64,6 +67,12 @@ std::string CommandLine::text(const std::string& key, const std::string& fallbac
 {
   const auto it = options_.find(key);
   return it == options_.end() ? fallback : it->second;
+}
+
+std::vector<std::string> CommandLine::every(const std::string& key) const
+{
+  const auto it = every_.find(key);
+  return it == every_.end() ? std::vector<std::string>() : it->second;
 }
 
 std::optional<double> parseNumber(const std::string& text)

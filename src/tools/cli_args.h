@@ -56,6 +56,8 @@ public:
 
   /// The option's value, `fallback` when it was not given.
   std::string text(const std::string& key, const std::string& fallback = "") const;
+  /// Every value the option was given, in order (empty when it was not given).
+  std::vector<std::string> every(const std::string& key) const;
   /// The option as a finite number > 0, `fallback` when it was not given.
   double positiveNumber(const std::string& key, double fallback) const;
   /// The option as an integer in [1, max_value], `fallback` when it was not given.
@@ -70,6 +72,7 @@ public:
 
 private:
   std::map<std::string, std::string> options_;
+  std::map<std::string, std::vector<std::string>> every_;
   std::vector<std::string> positional_;
   std::set<std::string> flags_;
 };

@@ -36,7 +36,9 @@ const char* const kUsage =
     "  --width W --height H  camera mode (default 640x480)\n"
     "  --rate HZ      frames and control periods per second (default 10)\n"
     "  --max-steps N  control periods before a timeout (default 300)\n"
-    "  --config YAML  detector parameters (default: config/default.yaml's values)\n"
+    "  --config YAML  detector parameters (default: config/default.yaml's values); given again,\n"
+    "                 each file's keys override the ones before (e.g. config/default.yaml, then\n"
+    "                 config/forklift_mount.yaml: what the robot's camera mount tells the tracker)\n"
     "  --pictures DIR for each trial not inserted: its first, worst and last frame with the\n"
     "                 overlay; every trial's trajectory in DIR/trials.jsonl, drawn from above in\n"
     "                 DIR/trajectories.png (scripts/plot_sim.py)\n"
@@ -151,8 +153,7 @@ int run(int argc, char** argv)
   base.oracle = line.has("--oracle");
   base.odometry_motion = !line.has("--no-odometry");
   base.target_hint_radius = line.text("--target-hint").empty() ? 0.0 : line.positiveNumber("--target-hint", 0.0);
-  const std::string config = line.text("--config");
-  if (!config.empty())
+  for (const std::string& config : line.every("--config"))
     sv::loadParamsYaml(config, base.detector);
   const std::string pictures = line.text("--pictures");
   base.keep_pictures = !pictures.empty();
@@ -238,6 +239,7 @@ int run(int argc, char** argv)
   summary["trials"] = trials;
   summary["size"] = std::to_string(base.size.width) + "x" + std::to_string(base.size.height);
   summary["controller"] = base.oracle ? "oracle" : "vision";
+  summary["config"] = line.every("--config");
   summary["odometry_motion"] = base.odometry_motion;
   summary["target_hint_radius"] = base.target_hint_radius;
   summary["outcomes"] = outcomes;

@@ -4,7 +4,9 @@ world (spool_sim_world) renders what the robot's camera sees, the detector node 
 the controller node drives on its SpoolPose and pushes; the world judges the push on the
 renderer's geometry. Asserts the puller went in (the misses within t_f at both ends of the bore),
 the action ended "inserted", and spool_sim, running the same trial in one process, ends the same
-way at the same frame: the ROS path adds no latency, drops no frame and changes no decision."""
+way at the same frame: the ROS path adds no latency, drops no frame and changes no decision. The
+launch's defaults are spool_sim's second config (config/forklift_mount.yaml) and its
+--target-hint (the world publishes the slot in odom, the detector turns it through TF)."""
 import json
 import math
 import os
@@ -15,6 +17,7 @@ import unittest
 import roslib.packages
 import rospy
 import rostest
+from geometry_msgs.msg import PointStamped
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))
 import run_sim_trial  # noqa: E402 (the launch's own trial runner, from scripts/)
@@ -38,8 +41,14 @@ class SimLoop(unittest.TestCase):
 
         spool_sim = roslib.packages.find_node("spool_vision", "spool_sim")
         self.assertTrue(spool_sim, "spool_sim is not built")
-        run = subprocess.run([spool_sim[0], "--trials", "1", "--seed", str(seed)], capture_output=True, text=True,
-                             timeout=TIMEOUT, check=True)
+        hint = rospy.wait_for_message("/target_hint", PointStamped, timeout=10.0)  # latched
+        self.assertEqual(hint.header.frame_id, "odom")
+        config = os.path.join(roslib.packages.get_pkg_dir("spool_vision"), "config")
+        run = subprocess.run([spool_sim[0], "--trials", "1", "--seed", str(seed),
+                              "--config", os.path.join(config, "default.yaml"),
+                              "--config", os.path.join(config, "forklift_mount.yaml"),
+                              "--target-hint", str(rospy.get_param("/spool_detector/target_hint_radius"))],
+                             capture_output=True, text=True, timeout=TIMEOUT, check=True)
         trial = json.loads(run.stdout.splitlines()[0])
         self.assertEqual(trial["outcome"], outcome.outcome)
         self.assertEqual(trial["retries"], result.retries)

@@ -3,6 +3,7 @@
 // from the renderer, so the focal length they were taken with is known exactly.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -439,6 +440,24 @@ TEST(SpoolSimCli, FramesKeepsEveryFrameWithItsTruthAndTheCamera)
   }
   EXPECT_FALSE(fs::exists(trial / "frame_00003.png"));
   fs::remove_all(dir);
+}
+
+TEST(SpoolSimCli, ConfigFilesGivenAgainOverrideTheOnesBefore)
+{
+  // The robot's mount over the detector's YAML, as docs/closed_loop.md runs the trials; a bad key
+  // in the second file is found, so the second file is read too.
+  const std::string config = std::string(SPOOL_CONFIG_DIR);
+  const CliRun run = spoolSim("--trials 1 --seed 5 --oracle --width 160 --height 120 --max-steps 2 --config " + config +
+                              "/default.yaml --config " + config + "/forklift_mount.yaml");
+  ASSERT_EQ(run.exit_code, 0) << run.errors;
+  const auto summary = nlohmann::json::parse(run.lines.at(1))["summary"];
+  EXPECT_EQ(summary["config"], nlohmann::json::array({config + "/default.yaml", config + "/forklift_mount.yaml"}));
+  const std::string bad = ::testing::TempDir() + "spool_sim_bad_mount.yaml";
+  std::ofstream(bad) << "track_level_pitch_sigma: 0.5\n";
+  const CliRun refused = spoolSim("--trials 1 --oracle --config " + config + "/default.yaml --config " + bad);
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_TRUE(has(refused.errors, "track_level_pitch_sigma")) << refused.errors;
+  std::remove(bad.c_str());
 }
 
 TEST(SpoolSimCli, BadOptionsExitTwoNamingTheOption)
