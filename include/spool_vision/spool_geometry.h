@@ -84,13 +84,20 @@ public:
 
   /// Fills depth (distance), range, position, axis, yaw, reference, lateral offset, overlap and
   /// alignment of `detection` from its flange and (if hole_detected) hole. With a hole the pose
-  /// is fitRimPose()'s on `rim` (rimPose()'s where that fails or `rim` is empty); without one the
-  /// flange centre and Eq. 3.2 give the position and the axis is NaN. Aligned: a hole rim, depth in the
+  /// is fitRimPose()'s on `rim` (rimPose()'s where that fails or `rim` is empty); without one, or
+  /// where the fit's pose is implausible (its depth more than 15% off Eq. 3.2's, its axis more than
+  /// 40 deg off the line of sight), the hole (else flange) centre and Eq. 3.2 give the position
+  /// and the axis is NaN (axis_cue none: nothing aligns on it). Aligned: a hole rim, depth in the
   /// insertion window, |yaw| <= aligned_max_yaw and pullerMiss() within t_f at both ends of the bore (Eq. 3.8, taken
   /// along the bore); Rule 3 (overlapped) is reported but not required.
   void measure(SpoolDetection& detection, const std::vector<cv::Point2f>& rim = {}) const;
 
 private:
+  /// No absurd pose (issue 28): the rim fits' depth within 15% of Eq. 3.2's (`eq32_depth`, m, on
+  /// the rim's vertical semi-axis) and the axis within 40 deg of the line of sight (a rim seen
+  /// further off was never taken as one); finite.
+  static bool plausiblePose(const cv::Point3d& position, const cv::Vec3d& axis, double eq32_depth);
+
   // fitRimPose() from rimPose()'s pose in `d` and from the flange circle's size; keeps the one
   // more of `rim` supports.
   void refineOnRim(const std::vector<cv::Point2f>& rim, SpoolDetection& d) const;

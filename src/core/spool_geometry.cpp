@@ -250,6 +250,20 @@ double SpoolGeometry::tolerance() const
   return (params_.hole_diameter - params_.puller_diameter) / 2.0;
 }
 
+bool SpoolGeometry::plausiblePose(const cv::Point3d& position, const cv::Vec3d& axis, double eq32_depth)
+{
+  // A rim's ellipse is only taken within 20% of a circle (HoughAccumulator::refine), so no rim seen
+  // more than acos(0.8) = 37 deg off its axis was measured; and its vertical semi-axis gives the
+  // depth (Eq. 3.2) within a few percent whatever the fit (a cut rim's: 6%; a pitch of 10 deg:
+  // 1.5%). A fit beyond either contradicts its own image.
+  constexpr double kMaxDepthDisagreement = 0.15;
+  constexpr double kMaxViewAngle = 40.0 * M_PI / 180.0;
+  const cv::Vec3d ray = cv::normalize(cv::Vec3d(position.x, position.y, position.z));
+  return std::isfinite(position.z) && position.z > 0.0 && std::isfinite(axis[2]) &&
+         std::abs(position.z / eq32_depth - 1.0) <= kMaxDepthDisagreement &&
+         std::acos(std::clamp(std::abs(ray.dot(axis)), 0.0, 1.0)) <= kMaxViewAngle;
+}
+
 void SpoolGeometry::refineOnRim(const std::vector<cv::Point2f>& rim, SpoolDetection& d) const
 {
   const cv::Point2d centre(d.hole.x, d.hole.y);
@@ -288,10 +302,21 @@ void SpoolGeometry::measure(SpoolDetection& d, const std::vector<cv::Point2f>& r
   // The bore's front centre projects onto the hole's centre; without a hole the flange's centre
   // stands in for it (off by up to f (R/Z)^2 sin(tilt) px) and the axis stays unknown.
   const Circle& centre = d.hole_detected ? d.hole : d.flange;
-  if (!d.hole_detected || !rimPose(d.flange, {centre.x, centre.y}, d.position, d.axis))
-    d.position = backProject(centre.x, centre.y, depthFromDiameter(2.0 * d.flange.r_vertical));
-  else if (!rim.empty())
-    refineOnRim(rim, d);
+  const double eq32_depth = depthFromDiameter(2.0 * d.flange.r_vertical);
+  if (d.hole_detected && rimPose(d.flange, {centre.x, centre.y}, d.position, d.axis))
+  {
+    if (!rim.empty())
+      refineOnRim(rim, d);
+    if (!plausiblePose(d.position, d.axis, eq32_depth))
+    {
+      d.position = backProject(centre.x, centre.y, eq32_depth);
+      d.axis = cv::Vec3d(SpoolDetection::kNaN, SpoolDetection::kNaN, SpoolDetection::kNaN);
+    }
+  }
+  else
+  {
+    d.position = backProject(centre.x, centre.y, eq32_depth);
+  }
   d.distance = d.position.z;
   d.range = std::sqrt(d.position.dot(d.position));
   if (std::isfinite(d.axis[2]))

@@ -381,3 +381,54 @@ TEST(SpoolGeometry, ACutRimsSquashedEllipseDoesNotTrapTheRimFit)
   EXPECT_NEAR(d.distance, c[2], 0.005 * c[2]);
   EXPECT_NEAR(d.axis_angle, 0.0, 0.5 * kDeg);
 }
+
+TEST(SpoolGeometry, NoPoseOutsidePhysicsWhateverTheRimPoints)
+{
+  // Arbitrary measurements (flange ellipse, hole, edge points on other circles, lines, noise):
+  // whatever the fits do, a published pose has its depth within 15% of Eq. 3.2 on the flange's
+  // vertical semi-axis and its axis within 40 deg of the line of sight, or no axis at all.
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  cv::RNG rng(11);
+  int without_axis = 0;
+  for (int i = 0; i < 3000; ++i)
+  {
+    SpoolDetection d;
+    d.detected = d.hole_detected = true;
+    d.flange.x = rng.uniform(-100.0, 740.0);
+    d.flange.y = rng.uniform(-100.0, 580.0);
+    d.flange.r = rng.uniform(60.0, 500.0);
+    d.flange.r_vertical = d.flange.r * rng.uniform(0.8, 1.2);
+    d.flange.r_horizontal = d.flange.r * rng.uniform(0.8, 1.2);
+    d.hole.x = d.flange.x + rng.uniform(-0.2, 0.2) * d.flange.r;
+    d.hole.y = d.flange.y + rng.uniform(-0.2, 0.2) * d.flange.r;
+    d.hole.r = d.flange.r * rng.uniform(0.05, 0.2);
+    std::vector<cv::Point2f> rim;
+    const cv::Point2d c(d.flange.x + rng.uniform(-50.0, 50.0), d.flange.y + rng.uniform(-50.0, 50.0));
+    const double a = d.flange.r * rng.uniform(0.5, 1.5);
+    const double b = d.flange.r * rng.uniform(0.5, 1.5);
+    const int points = rng.uniform(0, 800);
+    for (int k = 0; k < points; ++k)
+    {
+      const double phi = rng.uniform(0.0, rng.uniform(0.5, 2.0 * M_PI));
+      const bool noise = rng.uniform(0.0, 1.0) < 0.2;
+      rim.emplace_back(static_cast<float>(noise ? rng.uniform(0.0, 640.0) : c.x + a * std::cos(phi)),
+                       static_cast<float>(noise ? rng.uniform(0.0, 480.0) : c.y + b * std::sin(phi)));
+    }
+    g.measure(d, rim);
+    const double eq32 = camera.fy * 0.35 / (2.0 * d.flange.r_vertical);
+    ASSERT_TRUE(std::isfinite(d.distance) && d.distance > 0.0) << i;
+    if (!std::isfinite(d.axis[2]))
+    {
+      ++without_axis;
+      EXPECT_NEAR(d.distance, eq32, 1e-9 * eq32) << i;
+      EXPECT_FALSE(d.aligned) << i;
+      continue;
+    }
+    EXPECT_LE(std::abs(d.distance / eq32 - 1.0), 0.15) << i;
+    const cv::Vec3d ray = cv::normalize(cv::Vec3d(d.position.x, d.position.y, d.position.z));
+    EXPECT_LE(std::acos(std::min(1.0, std::abs(ray.dot(d.axis)))), 40.0 * kDeg + 1e-9) << i;
+  }
+  // The check is exercised: some of these fits went where no rim could have been seen.
+  EXPECT_GT(without_axis, 0);
+}

@@ -5,6 +5,7 @@
 // fills the pixels. detect() must return or throw std::invalid_argument (its documented error);
 // anything else escaping, a crash or a sanitizer report is a bug. Each frame is processed twice
 // by the same detector: the second call takes the steady-state path with every buffer sized.
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -201,6 +202,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       check(!d.detected || (d.flange.r > 0.0 && d.confidence > 0.0 && d.confidence <= 1.0),
             "a detection without a flange radius or with confidence outside (0, 1]");
       check(!d.hole_detected || d.detected, "a hole without a flange");
+      // No number outside physics: the depth agrees with Eq. 3.2 on the flange's size, an axis
+      // lies within 40 deg of the line of sight (SpoolGeometry::measure's check).
+      const double eq32 = detector.camera().fy * params.geometry.flange_diameter / (2.0 * d.flange.r_vertical);
+      check(!d.detected || (std::isfinite(d.distance) && std::abs(d.distance / eq32 - 1.0) <= 0.15 + 1e-9),
+            "a depth more than 15% off Eq. 3.2's");
+      const cv::Vec3d ray = cv::normalize(cv::Vec3d(d.position.x, d.position.y, d.position.z));
+      check(!std::isfinite(d.axis[2]) || std::acos(std::min(1.0, std::abs(ray.dot(d.axis)))) <= 40.0 * M_PI / 180.0 + 1e-9,
+            "an axis more than 40 deg off the line of sight");
     }
     catch (const std::invalid_argument&)
     {
