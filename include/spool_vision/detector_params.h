@@ -179,12 +179,11 @@ struct TrackerParams
   int confirm_frames = 3;  ///< frames in a row the filtered state must clear the bore for aligned
   /// aligned needs each of the puller's misses plus this many standard deviations within t_f
   double aligned_sigma = 3.0;
-  /// rad: tracked aligned only where one pixel subtends at most this (1 / fy; 320x240: 0.0025).
-  /// 0.003 lets the filter's 3 sigma decide at 320x240: the closed loop there (docs/closed_loop.md)
-  /// inserts 37 of 40 with the level pitch, but once (tuning seed 8) a cut flange's depth 6% long
-  /// put the bore 2.5 mm off vertically with a 0.5 mm sigma and the push touched. Hence 640x480 and
-  /// up by default, as per frame.
-  double aligned_max_pixel_angle = 0.0015;
+  /// rad: tracked aligned only where one pixel subtends at most this (1 / fy; 320x240: 0.0025,
+  /// 160x120: 0.005). From 320x240 up the filter's 3 sigma decides: the closed loop there
+  /// (docs/closed_loop.md) inserts 196 of 200 untuned trials with no collision since a cut rim's
+  /// depth no longer comes out 6% long (SpoolGeometry's second start); 0.0015 keeps it to 640x480.
+  double aligned_max_pixel_angle = 0.003;
   double noise_scale = 1.0;  ///< multiplies the measured error model's sigmas (docs/error_model.md)
   /// frames: while tracking the flange is searched in the predicted window, and in the whole
   /// frame every this many frames (1 = always the whole frame)

@@ -92,11 +92,24 @@ public:
   /// (the larger of the two applies)
   static constexpr double kWindowSensitivity = 0.75;
   static constexpr double kWindowPad = 6.0;
+  /// A bore measuring this many times the size its flange allows (or more) says the "flange" is
+  /// an inner ring (issue 28: a raised rib on a face that overfills the frame); the outer rim is
+  /// searched within kOuterRimMargin of the size the bore gives.
+  static constexpr double kInnerRingRatio = 1.12;
+  static constexpr double kOuterRimMargin = 0.12;
+  /// The outer rim is taken where its own hole is that bore: radius and centre within this
+  /// fraction of the bore's radius.
+  static constexpr double kOwnBoreAgreement = 0.05;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
   /// rim_: the edges of the result's flange rim (for SpoolGeometry::fitRimPose).
   void gatherRim(const SpoolDetection& result, Polarity polarity);
+  /// Whether the result's bore, measured at its own size, says its flange is an inner ring: then
+  /// `bore` is the best circle within the flange's hole size of the hole's centre, from
+  /// kInnerRingRatio times that size up to `hole_search`'s largest, scoring at least the hole
+  /// (px, undistorted). Uses hole_edges_ and own_bores_.
+  bool ownBore(const SpoolDetection& result, const HoughSearch& hole_search, Circle& bore);
   /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
   /// The most edges kept from a region of `size` (edge_budget).
@@ -184,6 +197,7 @@ private:
   std::vector<Circle> first_holes_;    ///< the first search's target's during the flange_retry search
   std::vector<Circle> first_flanges_;  ///< the first search's candidates during the flange_retry search
   std::vector<Circle> lenses_;
+  std::vector<Circle> own_bores_;    ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;  ///< measureLens()'s scratch
   std::vector<std::size_t> order_;
 };

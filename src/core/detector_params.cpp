@@ -217,7 +217,9 @@ std::vector<ParamSpec> buildSpecs()
              "aligned needs each puller miss plus this many standard deviations within t_f - aligned_margin"),
       number("track_aligned_max_pixel_angle", FIELD(tracker.aligned_max_pixel_angle), 0.0, 1.0, "rad",
              "tracked aligned only where one pixel subtends at most this (1 / fy; 640x480: 0.00125, 320x240: "
-             "0.0025); 0.003 lets the filter's sigma decide at 320x240, at a risk (docs/closed_loop.md)"),
+             "0.0025, 160x120: 0.005): from 320x240 up the filter's sigma decides (docs/closed_loop.md: 196 of 200 "
+             "inserted at 320x240, no collision); 0.0015 keeps it to 640x480 and up, as `aligned_max_pixel_angle` "
+             "does per frame"),
       number("track_noise_scale", FIELD(tracker.noise_scale), 0.1, 10.0, "",
              "multiplies the measured error model's sigmas (docs/error_model.md)"),
       number("track_full_search_interval", FIELD(tracker.full_search_interval), 1, 1000, "frames",

@@ -162,7 +162,26 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
   geometry.measure(result, rim_);
   measureBoreParallax(geometry, result);
+  // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
+  Circle bore;
+  const bool inner_ring = !window && result.hole_detected && ownBore(result, hole_search, bore);
   toFramePixels(geometry.camera(), result);
+  if (inner_ring)
+  {
+    // The flange is then the larger concentric rim that bore gives, searched as the tracker's
+    // window searches (the rim may be cut by the frame), after this result is complete (the
+    // search reuses the frame's buffers).
+    const double outer = result.flange.r_vertical * bore.r_vertical / matcher_.holeRadius(result.flange);
+    const double margin = kOuterRimMargin * outer;
+    const SpoolDetection flange = detect(image, format, FlangeWindow{{bore.x, bore.y}, 0.25 * margin, outer, margin});
+    // Taken only where the two agree: the outer rim's own hole is the bore that was measured (in
+    // frame px, as detect() leaves its centres).
+    const cv::Point2d seen = distortPixel(geometry.camera(), {bore.x, bore.y});
+    if (flange.hole_detected && flange.flange.r_vertical >= kInnerRingRatio * result.flange.r_vertical &&
+        std::abs(flange.hole.r / bore.r - 1.0) <= kOwnBoreAgreement &&
+        std::hypot(flange.hole.x - seen.x, flange.hole.y - seen.y) <= kOwnBoreAgreement * bore.r)
+      result = flange;
+  }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
@@ -398,6 +417,30 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
                                   0.25 * semi_y + 1.0, side, fitted) &&
       fitted.score >= 1.0 - params_.hough.hole_sensitivity)
     hole = fitted;
+}
+
+bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hole_search, Circle& bore)
+{
+  const Circle& hole = result.hole;
+  const double expected = matcher_.holeRadius(result.flange);
+  // The detected hole can be a smaller circle inside the true bore (its lit part, an arc of its
+  // rim): the bore's centre may lie up to the size the flange gives away.
+  const double margin = std::max(2.0, expected);
+  HoughSearch own = hole_search;
+  own.center_window = cv::Rect2d(hole.x - margin, hole.y - margin, 2.0 * margin, 2.0 * margin);
+  own.r_min = kInnerRingRatio * expected;
+  if (own.r_min >= own.r_max)
+    return false;
+  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), margin + own.r_max + 2.0);
+  hole_hough_.detect(hole_edges_, preprocessed_.size(), own, own_bores_);
+  const auto best = std::max_element(own_bores_.begin(), own_bores_.end(),
+                                     [](const Circle& a, const Circle& b) { return a.score < b.score; });
+  // The bore's rim at its own size must be at least as well supported as the one the flange's size
+  // gave: a faint ring about a true bore (a hub, a chamfer) is not its rim.
+  if (best == own_bores_.end() || best->score < hole.score)
+    return false;
+  bore = *best;
+  return true;
 }
 
 void SpoolDetector::findLens(SpoolDetection& result)

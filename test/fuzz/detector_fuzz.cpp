@@ -208,7 +208,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       check(!d.detected || (std::isfinite(d.distance) && std::abs(d.distance / eq32 - 1.0) <= 0.15 + 1e-9),
             "a depth more than 15% off Eq. 3.2's");
       const cv::Vec3d ray = cv::normalize(cv::Vec3d(d.position.x, d.position.y, d.position.z));
-      check(!std::isfinite(d.axis[2]) || std::acos(std::min(1.0, std::abs(ray.dot(d.axis)))) <= 40.0 * M_PI / 180.0 + 1e-9,
+      check(!std::isfinite(d.axis[2]) ||
+                std::acos(std::min(1.0, std::abs(ray.dot(d.axis)))) <= 40.0 * M_PI / 180.0 + 1e-9,
             "an axis more than 40 deg off the line of sight");
     }
     catch (const std::invalid_argument&)
