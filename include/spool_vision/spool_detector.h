@@ -98,8 +98,10 @@ public:
   static constexpr double kInnerRingRatio = 1.12;
   static constexpr double kOuterRimMargin = 0.12;
   /// The outer rim is taken where its own hole is that bore: radius and centre within this
-  /// fraction of the bore's radius.
+  /// fraction of the bore's radius, or kOwnBoreAgreementPx where that is more (a 13 px bore at
+  /// 320x240 is measured to about a pixel).
   static constexpr double kOwnBoreAgreement = 0.05;
+  static constexpr double kOwnBoreAgreementPx = 1.0;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);

@@ -177,9 +177,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     // Taken only where the two agree: the outer rim's own hole is the bore that was measured (in
     // frame px, as detect() leaves its centres).
     const cv::Point2d seen = distortPixel(geometry.camera(), {bore.x, bore.y});
+    const double agreement = std::max(kOwnBoreAgreement * bore.r, kOwnBoreAgreementPx);
     if (flange.hole_detected && flange.flange.r_vertical >= kInnerRingRatio * result.flange.r_vertical &&
-        std::abs(flange.hole.r / bore.r - 1.0) <= kOwnBoreAgreement &&
-        std::hypot(flange.hole.x - seen.x, flange.hole.y - seen.y) <= kOwnBoreAgreement * bore.r)
+        std::abs(flange.hole.r - bore.r) <= agreement &&
+        std::hypot(flange.hole.x - seen.x, flange.hole.y - seen.y) <= agreement)
       result = flange;
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
