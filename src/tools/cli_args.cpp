@@ -20,10 +20,9 @@ CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& key
   app.allow_extras();
   bool help = false;
   app.add_flag("-h,--help", help);
-  std::map<std::string, std::string> values;
   std::map<std::string, CLI::Option*> options;
   for (const std::string& key : keys)
-    options[key] = app.add_option(key, values[key])->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+    options[key] = app.add_option(key)->expected(1)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   std::map<std::string, CLI::Option*> given_flags;
   for (const std::string& flag : flags)
     given_flags[flag] = app.add_flag(flag);
@@ -54,10 +53,7 @@ CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& key
   }
   for (const auto& [key, option] : options)
     if (option->count() > 0)
-    {
-      options_[key] = values[key];
       every_[key] = option->results();
-    }
   for (const auto& [flag, option] : given_flags)
     if (option->count() > 0)
       flags_.insert(flag);
@@ -65,8 +61,8 @@ CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& key
 
 std::string CommandLine::text(const std::string& key, const std::string& fallback) const
 {
-  const auto it = options_.find(key);
-  return it == options_.end() ? fallback : it->second;
+  const auto it = every_.find(key);
+  return it == every_.end() ? fallback : it->second.back();
 }
 
 std::vector<std::string> CommandLine::every(const std::string& key) const
@@ -94,9 +90,9 @@ std::optional<double> parseNumber(const std::string& text)
 
 double CommandLine::positiveNumber(const std::string& key, double fallback) const
 {
-  if (!options_.count(key))
+  if (!every_.count(key))
     return fallback;
-  const std::string value = options_.at(key);
+  const std::string value = text(key);
   const std::optional<double> number = parseNumber(value);
   if (!number || *number <= 0.0)
     throw UsageError(key + ": expected a positive number, got '" + value + "'");
@@ -113,9 +109,9 @@ int CommandLine::positiveInteger(const std::string& key, int max_value, int fall
 
 std::uint64_t CommandLine::seed(const std::string& key, std::uint64_t fallback) const
 {
-  if (!options_.count(key))
+  if (!every_.count(key))
     return fallback;
-  const std::string value = options_.at(key);
+  const std::string value = text(key);
   if (value.empty() || value.size() > 19 || value.find_first_not_of("0123456789") != std::string::npos)
     throw UsageError(key + ": expected a non-negative integer, got '" + value + "'");
   return std::stoull(value);

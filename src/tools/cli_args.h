@@ -71,8 +71,7 @@ public:
   }
 
 private:
-  std::map<std::string, std::string> options_;
-  std::map<std::string, std::vector<std::string>> every_;
+  std::map<std::string, std::vector<std::string>> every_;  ///< each option's values, in order
   std::vector<std::string> positional_;
   std::set<std::string> flags_;
 };
