@@ -16,9 +16,14 @@ namespace spool_vision
 /// on every call. Returns `p` unchanged when the camera has no distortion.
 cv::Point2d distortPixel(const CameraIntrinsics& camera, const cv::Point2d& p);
 
+/// px between the nodes at which undistortionTable() solves the lens model exactly.
+constexpr int kUndistortionGridStep = 8;
+
 /// For every pixel of `camera`'s raw frame, where it lies in the undistorted image with the same
-/// K (CV_32FC2, height x width, px; cv::undistortPoints). Throws std::invalid_argument when the
-/// camera is invalid.
+/// K (CV_32FC2, height x width, px): cv::undistortPoints at every kUndistortionGridStep-th pixel
+/// in x and y, Catmull-Rom in between (within 0.001 px of solving every pixel, for a C270-like
+/// lens and a strong rational_polynomial one; about 5 ms at 1280x720 where every pixel's solve
+/// took 320). Throws std::invalid_argument when the camera is invalid.
 void undistortionTable(const CameraIntrinsics& camera, cv::Mat& table);
 
 }  // namespace spool_vision

@@ -175,8 +175,12 @@ struct TrackerParams
   /// Mahalanobis distance of a detection's position from the prediction beyond which it is
   /// refused (not fused, counted): 4 keeps 99.6% of true detections (3 degrees of freedom)
   double gate = 4.0;
-  int max_coast = 5;       ///< frames without a fused detection before the track is lost
-  int confirm_frames = 3;  ///< frames in a row the filtered state must clear the bore for aligned
+  /// frames without a fused detection before the track is lost (none for a track with fewer than
+  /// confirm_frames fused frames)
+  int max_coast = 5;
+  /// frames in a row the filtered state must clear the bore for aligned; also the fused frames a
+  /// track needs before it is searched in a window, coasts or follows a rib ring
+  int confirm_frames = 3;
   /// aligned needs each of the puller's misses plus this many standard deviations within t_f
   double aligned_sigma = 3.0;
   /// rad: tracked aligned only where one pixel subtends at most this (1 / fy; 320x240: 0.0025,

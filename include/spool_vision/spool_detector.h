@@ -30,6 +30,8 @@ public:
 
   /// Camera intrinsics for frames of the matching size. Without them (or for another size) the
   /// thesis camera scaled to the frame is used; usingFallbackCamera() tells which applied last.
+  /// The camera's lens table (undistortionTable()) and geometry are built here, not in the first
+  /// frame. Throws std::invalid_argument on invalid intrinsics.
   void setCamera(const CameraIntrinsics& camera);
   void clearCamera();
   bool usingFallbackCamera() const

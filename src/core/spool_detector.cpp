@@ -56,6 +56,8 @@ void SpoolDetector::setCamera(const CameraIntrinsics& camera)
     throw std::invalid_argument("camera intrinsics need fx, fy > 0 and a positive image size");
   camera_ = camera;
   geometry_.reset();
+  // The lens table and the geometry for this camera now, not in its first frame's time.
+  geometryFor(cv::Size(camera.width, camera.height));
 }
 
 void SpoolDetector::clearCamera()

@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include "spool_vision/camera_model.h"
 #include "spool_vision/spool_geometry.h"
 
 namespace spool_vision
@@ -99,6 +100,14 @@ Eigen::Matrix3d rayCovariance(const Eigen::Vector3d& p, double relative_z, doubl
 double flangeRadiusPx(const SpoolDetection& d)
 {
   return std::max(d.flange.r_vertical > 0.0 ? d.flange.r_vertical : d.flange.r, 1.0);
+}
+
+// px from the `reference` pixel (the detector's, in frame px) to where the point `p` (m, camera
+// optical frame) shows in the frame: the distance the detector's target rule orders spools by.
+double referenceDistance(const cv::Point3d& p, const cv::Point2d& reference, const CameraIntrinsics& camera)
+{
+  const cv::Point2d seen = distortPixel(camera, {camera.cx + camera.fx * p.x / p.z, camera.cy + camera.fy * p.y / p.z});
+  return std::hypot(seen.x - reference.x, seen.y - reference.y);
 }
 
 // Covariance (m^2) of a detection's position (rayCovariance: Eq. 3.2's depth from the flange radius).
@@ -248,9 +257,10 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   }
   else if (usable(detection))
   {
-    // One that agrees with the detections refused on the last two frames or more is that other
-    // thing again (a circle too big, taken on frame after frame), however close the gate, widened
-    // by the coasting, lets it come.
+    // One that agrees with the detections refused on the frames just before is that other thing
+    // again (a circle too big, taken on frame after frame), however close the gate, widened by the
+    // coasting, lets it come: fused, a second 2% too short moves the track's velocity enough to
+    // refuse the flange on the frames after it.
     const Eigen::Matrix3d covariance = positionCovariance(detection, noise, camera);
     fused = !repeatsRefused(detection, covariance) && fuseMeasurement(toEigen(detection.position), covariance);
     if (fused)
@@ -274,7 +284,10 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   }
   // A frame that followed the rib ring neither counts as coasted nor clears the count.
   coasted_ = fused ? 0 : coasted_ + (followed_rib ? 0 : 1);
-  if (coasted_ > params_.tracker.max_coast)
+  // A track younger than track_confirm_frames fused frames has no velocity to coast on (the robot's
+  // 1-3 cm a frame at 10 Hz is 1-3% of the depth per frame): it ends at the first frame it misses.
+  const bool young = fused_frames_ < params_.tracker.confirm_frames;
+  if (coasted_ > (young ? 0 : params_.tracker.max_coast))
   {
     tracked_.state = TrackState::kLost;
     tracked_.aligned = false;
@@ -412,9 +425,10 @@ bool SpoolTracker::isRibRing(const SpoolDetection& detection) const
   // heldout_v2's seq2_36). However well it fits the gate (a track that coasted a few frames
   // admits 15%), it is never the flange. (Any other ratio may be the flange itself against a
   // track that started on something else.)
-  // Not against a young track that has coasted: its prediction may have run away (a wrong second
-  // frame gives it a metre a second), making the flange itself look like a ring inside it.
-  if (fused_frames_ < params_.tracker.confirm_frames && coasted_ > 0)
+  // Not against a young track: its first frame may have been the wrong circle (one too big, about
+  // the bore, makes the flange itself look like a ring inside it), or its prediction may have run
+  // away (a wrong second frame gives it a metre a second).
+  if (fused_frames_ < params_.tracker.confirm_frames)
     return false;
   const Eigen::Vector3d p = x_.head<3>();
   const Eigen::Vector3d q = toEigen(detection.position);
@@ -540,7 +554,7 @@ double SpoolTracker::distance2To(const Refuter& refuter, const Eigen::Vector3d& 
 
 bool SpoolTracker::repeatsRefused(const SpoolDetection& detection, const Eigen::Matrix3d& covariance) const
 {
-  if (consecutive_.count < 2)
+  if (consecutive_.count < 1)
     return false;
   const Eigen::Vector3d offset = toEigen(detection.position) - x_.head<3>();
   const double to_refused = distance2To(consecutive_, offset, covariance);
@@ -577,8 +591,16 @@ bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const Measuremen
   // A track with fewer than track_confirm_frames fused frames has no history to hold against any
   // other refusal (two frames, one of them wrong, give it a velocity of a metre a second, and
   // coasting on it runs away from the spool): it ends at once.
+  // Or the whole frame's target by the detector's own rule (DESIGN.md §5): a hole rim nearer the
+  // puller's reference than the track's spool by more than a flange radius, another spool's
+  // place. Its confidence is not held against the track's, which windowed searches fill (a window
+  // whose prior stands in for part of the rim scores 1 where the whole frame's search scores 0.8).
+  const bool the_target =
+      consistent_whole && detection.hole_detected &&
+      referenceDistance(detection.position, detection.reference, camera) + flangeRadiusPx(detection) <
+          referenceDistance({p.x(), p.y(), p.z()}, detection.reference, camera);
   return ((consistent || consistent_whole) && detection.hole_detected && detection.confidence >= support_) ||
-         fused_frames_ < params_.tracker.confirm_frames;
+         the_target || fused_frames_ < params_.tracker.confirm_frames;
 }
 
 void SpoolTracker::publish(bool fused)
@@ -709,8 +731,10 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
   // Not the task's spool: a neighbour in a wide window (a young track's), or a rim at another depth.
   auto taskless = [&](const SpoolDetection& d) { return hint && d.detected && offHint(d.position); };
   const int interval = detector_.params().tracker.full_search_interval;
+  // A track younger than track_confirm_frames is searched in the whole frame: its first spool may
+  // be a neighbour taken while the target was not found, and the whole frame's target then ends it.
   std::optional<FlangeWindow> window;
-  if (since_full_search_ + 1 < interval)
+  if (since_full_search_ + 1 < interval && tracker_.current().age >= detector_.params().tracker.confirm_frames)
     window = tracker_.flangeWindow(stamp, detector_.camera(), motion);
   if (window)
   {

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -135,4 +136,34 @@ TEST(CameraModel, AWildCalibrationLeavesNoEdgeWithoutAPositionOrDirection)
   cv::Mat bgr;
   cv::cvtColor(noise, bgr, cv::COLOR_GRAY2BGR);
   EXPECT_NO_THROW(detector.detect(bgr, PixelFormat::kBgr8));
+}
+
+TEST(CameraModel, TheUndistortionTableInvertsTheLensAtEveryPixel)
+{
+  // The table solves the lens model on a grid and interpolates in between: each pixel's entry,
+  // put back through the lens (distortPixel, the model written out), lands on that pixel, for a
+  // C270-like lens at 640x480 and 1280x720 and a strong rational_polynomial one.
+  CameraIntrinsics hd = CameraIntrinsics::thesisDefault(1280, 720);
+  hd.cx = 652.0;
+  hd.cy = 350.0;
+  hd.distortion = {-0.2, 0.05, 0.001, -0.0005, 0.0};
+  CameraIntrinsics rational = c270();
+  rational.distortion = {-0.35, 0.12, 0.0005, 0.0003, -0.02, 0.05, 0.01, 0.002};
+  for (const CameraIntrinsics& camera : {c270(), hd, rational})
+  {
+    cv::Mat table;
+    spool_vision::undistortionTable(camera, table);
+    ASSERT_EQ(table.size(), cv::Size(camera.width, camera.height));
+    ASSERT_EQ(table.type(), CV_32FC2);
+    double worst = 0.0;
+    for (int y = 0; y < table.rows; ++y)
+      for (int x = 0; x < table.cols; ++x)
+      {
+        const cv::Vec2f u = table.at<cv::Vec2f>(y, x);
+        const cv::Point2d back = distortPixel(camera, {u[0], u[1]});
+        worst = std::max(worst, std::hypot(back.x - x, back.y - y));
+      }
+    EXPECT_LT(worst, 0.002) << camera.width << "x" << camera.height << ", " << camera.distortion.size()
+                            << " coefficients";
+  }
 }
