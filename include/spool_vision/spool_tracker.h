@@ -133,8 +133,10 @@ public:
   /// projected position plus the offset of a turned rim's ellipse centre from the projected
   /// centre, f (R/Z)^2 sin(max_view_angle); radius margin: 3 sigma of the depth plus
   /// kRadiusSpread (a rib ring is 60-86% of the flange's size, a neighbour's rim elsewhere).
-  /// nullopt without a track (searching, lost), or when the prediction is not ahead of the camera.
-  /// `motion`: the camera's since the last frame, as update() takes it.
+  /// nullopt without a track (searching, lost), for a track coasting or younger than
+  /// track_confirm_frames fused frames, after a gap over kDroppedFrameRatio times the interval
+  /// before it (dropped frames), or when the prediction is not ahead of the camera: the whole frame
+  /// is searched then. `motion`: the camera's since the last frame, as update() takes it.
   std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera,
                                            const std::optional<CameraMotion>& motion = std::nullopt) const;
 
@@ -146,6 +148,8 @@ public:
 
   /// Seconds between frames beyond which the prediction is worthless (a paused stream).
   static constexpr double kMaxGap = 1.0;
+  /// An interval this many times the one before means frames were dropped in between.
+  static constexpr double kDroppedFrameRatio = 1.5;
 
 private:
   using Vector6 = Eigen::Matrix<double, 6, 1>;
@@ -205,6 +209,7 @@ private:
   DetectorParams params_;
   TrackedSpool tracked_;
   std::optional<double> last_stamp_;
+  double last_interval_ = 0.0;  ///< s between the last two frames (0: none, or a restart)
   bool active_ = false;
   Vector6 x_ = Vector6::Zero();  ///< position (m), velocity (m/s)
   Matrix6 p_ = Matrix6::Zero();

@@ -212,6 +212,7 @@ void SpoolTracker::reset()
   axis_known_ = false;
   rib_ratio_.reset();
   last_stamp_.reset();
+  last_interval_ = 0.0;
   coasted_ = confirmed_ = consecutive_.count = whole_frame_.count = 0;
   tracked_ = TrackedSpool();
 }
@@ -222,6 +223,7 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   const bool time_jumped = last_stamp_ && (stamp < *last_stamp_ || stamp - *last_stamp_ > kMaxGap);
   const double dt = last_stamp_ && !time_jumped ? stamp - *last_stamp_ : 0.0;
   last_stamp_ = stamp;
+  last_interval_ = dt;
   if (time_jumped || tracked_.state == TrackState::kLost)
   {
     // A bag played again, a paused stream, or a track that ended: search afresh.
@@ -666,10 +668,15 @@ void SpoolTracker::decideAligned()
 std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const CameraIntrinsics& camera,
                                                        const std::optional<CameraMotion>& motion) const
 {
-  if (!active_ || tracked_.state == TrackState::kLost || !last_stamp_)
+  // Only a track that holds the spool, with a velocity, in the next frame: a young track's first
+  // spool may be a neighbour taken while the target was not found; a coasting track's wide window
+  // and gate admit the wrong circle the window's lowered sensitivity finds (one fused there turns
+  // the velocity, and the track runs off); so does a gap of dropped frames.
+  if (!active_ || tracked_.state != TrackState::kTracking || fused_frames_ < params_.tracker.confirm_frames ||
+      !last_stamp_)
     return std::nullopt;
   const double dt = stamp - *last_stamp_;
-  if (dt < 0.0 || dt > kMaxGap)
+  if (dt < 0.0 || dt > kMaxGap || (last_interval_ > 0.0 && dt > kDroppedFrameRatio * last_interval_))
     return std::nullopt;
   Eigen::Vector3d p = x_.head<3>() + dt * x_.tail<3>();
   // The prediction's covariance (the position block of F P F^T + Q) is close enough to P's
@@ -731,10 +738,8 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
   // Not the task's spool: a neighbour in a wide window (a young track's), or a rim at another depth.
   auto taskless = [&](const SpoolDetection& d) { return hint && d.detected && offHint(d.position); };
   const int interval = detector_.params().tracker.full_search_interval;
-  // A track younger than track_confirm_frames is searched in the whole frame: its first spool may
-  // be a neighbour taken while the target was not found, and the whole frame's target then ends it.
   std::optional<FlangeWindow> window;
-  if (since_full_search_ + 1 < interval && tracker_.current().age >= detector_.params().tracker.confirm_frames)
+  if (since_full_search_ + 1 < interval)
     window = tracker_.flangeWindow(stamp, detector_.camera(), motion);
   if (window)
   {

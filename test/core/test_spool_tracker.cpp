@@ -761,3 +761,25 @@ TEST(SpoolTracker, ACircleRefusedOnceIsRefusedAgainWhenTheCoastingGateWouldAdmit
     EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.01 * slowApproach(i).z) << i;
   }
 }
+
+TEST(SpoolTracker, AWindowOnlyWhileAConfirmedTrackHoldsTheSpoolFrameAfterFrame)
+{
+  // The whole frame is searched for a young track, a coasting one and after dropped frames; a
+  // window only for a track with track_confirm_frames fused frames whose last frame was fused.
+  SpoolTracker tracker;
+  const int confirm = DetectorParams().tracker.confirm_frames;
+  EXPECT_FALSE(tracker.flangeWindow(stamp(0), kCamera));  // no track
+  for (int i = 0; i < confirm; ++i)
+  {
+    EXPECT_FALSE(tracker.flangeWindow(stamp(i), kCamera)) << i;  // young
+    tracker.update(detectionAt(approach(i), kAlong, nullptr), stamp(i), kCamera);
+  }
+  const auto window = tracker.flangeWindow(stamp(confirm), kCamera);
+  ASSERT_TRUE(window);
+  EXPECT_NEAR(window->radius, kCamera.fy * kFlangeRadius / approach(confirm).z, 1.0);
+  EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 2), kCamera));  // a frame dropped before it
+  ASSERT_EQ(tracker.update(nothing(), stamp(confirm), kCamera).state, TrackState::kCoasting);
+  EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 1), kCamera));  // coasting
+  tracker.update(detectionAt(approach(confirm + 1), kAlong, nullptr), stamp(confirm + 1), kCamera);
+  EXPECT_TRUE(tracker.flangeWindow(stamp(confirm + 2), kCamera));
+}
