@@ -133,10 +133,9 @@ public:
   /// projected position plus the offset of a turned rim's ellipse centre from the projected
   /// centre, f (R/Z)^2 sin(max_view_angle); radius margin: 3 sigma of the depth plus
   /// kRadiusSpread (a rib ring is 60-86% of the flange's size, a neighbour's rim elsewhere).
-  /// nullopt without a track (searching, lost), for a track coasting or younger than
-  /// track_confirm_frames fused frames, after a gap over kDroppedFrameRatio times the interval
-  /// before it (dropped frames), or when the prediction is not ahead of the camera: the whole frame
-  /// is searched then. `motion`: the camera's since the last frame, as update() takes it.
+  /// nullopt without a track (searching, lost), for a track younger than track_confirm_frames
+  /// fused frames, after a gap over kDroppedFrameRatio times the interval before it (dropped
+  /// frames), or when the prediction is not ahead of the camera: the whole frame is searched then. `motion`: the camera's since the last frame, as update() takes it.
   std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera,
                                            const std::optional<CameraMotion>& motion = std::nullopt) const;
 

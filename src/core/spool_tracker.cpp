@@ -668,11 +668,12 @@ void SpoolTracker::decideAligned()
 std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const CameraIntrinsics& camera,
                                                        const std::optional<CameraMotion>& motion) const
 {
-  // Only a track that holds the spool, with a velocity, in the next frame: a young track's first
-  // spool may be a neighbour taken while the target was not found; a coasting track's wide window
-  // and gate admit the wrong circle the window's lowered sensitivity finds (one fused there turns
-  // the velocity, and the track runs off); so does a gap of dropped frames.
-  if (!active_ || tracked_.state != TrackState::kTracking || fused_frames_ < params_.tracker.confirm_frames ||
+  // Only a track with a velocity, in the next frame: a young track's first spool may be a
+  // neighbour taken while the target was not found; after a gap of dropped frames the window and
+  // the gate are wide enough to admit the wrong circle the window's lowered sensitivity finds (one
+  // fused there turns the velocity, and the track runs off). A coasting track keeps its window: a
+  // rib ring followed at the end of an approach leaves the flange, cut by the frame, to it.
+  if (!active_ || tracked_.state == TrackState::kLost || fused_frames_ < params_.tracker.confirm_frames ||
       !last_stamp_)
     return std::nullopt;
   const double dt = stamp - *last_stamp_;

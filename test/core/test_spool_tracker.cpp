@@ -762,10 +762,10 @@ TEST(SpoolTracker, ACircleRefusedOnceIsRefusedAgainWhenTheCoastingGateWouldAdmit
   }
 }
 
-TEST(SpoolTracker, AWindowOnlyWhileAConfirmedTrackHoldsTheSpoolFrameAfterFrame)
+TEST(SpoolTracker, AWindowOnlyForAConfirmedTrackFrameAfterFrame)
 {
-  // The whole frame is searched for a young track, a coasting one and after dropped frames; a
-  // window only for a track with track_confirm_frames fused frames whose last frame was fused.
+  // The whole frame is searched for a young track and after dropped frames; a window for a track
+  // with track_confirm_frames fused frames, coasting or not.
   SpoolTracker tracker;
   const int confirm = DetectorParams().tracker.confirm_frames;
   EXPECT_FALSE(tracker.flangeWindow(stamp(0), kCamera));  // no track
@@ -779,7 +779,6 @@ TEST(SpoolTracker, AWindowOnlyWhileAConfirmedTrackHoldsTheSpoolFrameAfterFrame)
   EXPECT_NEAR(window->radius, kCamera.fy * kFlangeRadius / approach(confirm).z, 1.0);
   EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 2), kCamera));  // a frame dropped before it
   ASSERT_EQ(tracker.update(nothing(), stamp(confirm), kCamera).state, TrackState::kCoasting);
-  EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 1), kCamera));  // coasting
-  tracker.update(detectionAt(approach(confirm + 1), kAlong, nullptr), stamp(confirm + 1), kCamera);
-  EXPECT_TRUE(tracker.flangeWindow(stamp(confirm + 2), kCamera));
+  EXPECT_TRUE(tracker.flangeWindow(stamp(confirm + 1), kCamera));  // coasting
+  EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 3), kCamera));  // and a frame dropped
 }
