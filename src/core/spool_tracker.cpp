@@ -259,10 +259,10 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   }
   else if (usable(detection))
   {
-    // One that agrees with the detections refused on the frames just before is that other thing
-    // again (a circle too big, taken on frame after frame), however close the gate, widened by the
-    // coasting, lets it come: fused, a second 2% too short moves the track's velocity enough to
-    // refuse the flange on the frames after it.
+    // One that agrees with the detections refused on the last two frames or more is that other
+    // thing again (a circle too big, taken on frame after frame), however close the gate, widened
+    // by the coasting, lets it come. (After one refusal it may be the flange the track drifted
+    // from: refusing it too kept a track on an oblique spool's wrong circle, closed-loop seed 1718.)
     const Eigen::Matrix3d covariance = positionCovariance(detection, noise, camera);
     fused = !repeatsRefused(detection, covariance) && fuseMeasurement(toEigen(detection.position), covariance);
     if (fused)
@@ -556,7 +556,7 @@ double SpoolTracker::distance2To(const Refuter& refuter, const Eigen::Vector3d& 
 
 bool SpoolTracker::repeatsRefused(const SpoolDetection& detection, const Eigen::Matrix3d& covariance) const
 {
-  if (consecutive_.count < 1)
+  if (consecutive_.count < 2)
     return false;
   const Eigen::Vector3d offset = toEigen(detection.position) - x_.head<3>();
   const double to_refused = distance2To(consecutive_, offset, covariance);
@@ -673,8 +673,7 @@ std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const Camer
   // the gate are wide enough to admit the wrong circle the window's lowered sensitivity finds (one
   // fused there turns the velocity, and the track runs off). A coasting track keeps its window: a
   // rib ring followed at the end of an approach leaves the flange, cut by the frame, to it.
-  if (!active_ || tracked_.state == TrackState::kLost || fused_frames_ < params_.tracker.confirm_frames ||
-      !last_stamp_)
+  if (!active_ || tracked_.state == TrackState::kLost || fused_frames_ < params_.tracker.confirm_frames || !last_stamp_)
     return std::nullopt;
   const double dt = stamp - *last_stamp_;
   if (dt < 0.0 || dt > kMaxGap || (last_interval_ > 0.0 && dt > kDroppedFrameRatio * last_interval_))

@@ -738,30 +738,6 @@ TEST(SpoolTracker, GivenTheCamerasMotionTheTrackTurnsWithTheCamera)
   EXPECT_GT(worst_window_held, 2.0 * worst_window_turned);
 }
 
-TEST(SpoolTracker, ACircleRefusedOnceIsRefusedAgainWhenTheCoastingGateWouldAdmitIt)
-{
-  // 10 Hz, 15 cm/s (approach_hard seed 118 at 640x480): on two frames in a row the detector takes
-  // a circle 2% too big, then the flange again. The first is refused; the coasting widens the gate
-  // enough to admit the second, which agrees with the first and so is refused too. Fused, it would
-  // have turned the track's velocity by 3 cm/s in a frame, the flange refused after it, and the
-  // track lost while its published depth ran off.
-  std::mt19937 rng(53);
-  SpoolTracker tracker;
-  feedSlowApproach(tracker, 17, rng);
-  for (int i = 17; i < 19; ++i)
-  {
-    const TrackedSpool& t =
-        tracker.update(detectionAt(slowApproach(i) * 0.98, kAlong, nullptr, 0.8), slowStamp(i), kCamera);
-    EXPECT_EQ(t.state, TrackState::kCoasting) << i;
-  }
-  for (int i = 19; i < 25; ++i)
-  {
-    const TrackedSpool& t = tracker.update(detectionAt(slowApproach(i), kAlong, &rng), slowStamp(i), kCamera);
-    EXPECT_EQ(t.state, TrackState::kTracking) << i;
-    EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.01 * slowApproach(i).z) << i;
-  }
-}
-
 TEST(SpoolTracker, AWindowOnlyForAConfirmedTrackFrameAfterFrame)
 {
   // The whole frame is searched for a young track and after dropped frames; a window for a track
@@ -779,6 +755,6 @@ TEST(SpoolTracker, AWindowOnlyForAConfirmedTrackFrameAfterFrame)
   EXPECT_NEAR(window->radius, kCamera.fy * kFlangeRadius / approach(confirm).z, 1.0);
   EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 2), kCamera));  // a frame dropped before it
   ASSERT_EQ(tracker.update(nothing(), stamp(confirm), kCamera).state, TrackState::kCoasting);
-  EXPECT_TRUE(tracker.flangeWindow(stamp(confirm + 1), kCamera));  // coasting
+  EXPECT_TRUE(tracker.flangeWindow(stamp(confirm + 1), kCamera));   // coasting
   EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 3), kCamera));  // and a frame dropped
 }
