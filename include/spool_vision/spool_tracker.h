@@ -135,7 +135,8 @@ public:
   /// kRadiusSpread (a rib ring is 60-86% of the flange's size, a neighbour's rim elsewhere).
   /// nullopt without a track (searching, lost), for a track younger than track_confirm_frames
   /// fused frames, after a gap over kDroppedFrameRatio times the interval before it (dropped
-  /// frames), or when the prediction is not ahead of the camera: the whole frame is searched then. `motion`: the camera's since the last frame, as update() takes it.
+  /// frames), or when the prediction is not ahead of the camera: the whole frame is searched then. `motion`: the
+  /// camera's since the last frame, as update() takes it.
   std::optional<FlangeWindow> flangeWindow(double stamp, const CameraIntrinsics& camera,
                                            const std::optional<CameraMotion>& motion = std::nullopt) const;
 
@@ -163,6 +164,9 @@ private:
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   };
 
+  /// Fewer than track_confirm_frames fused frames: no history to defend nor a velocity to coast
+  /// on; searched in the whole frame, never following a rib ring.
+  bool young() const;
   void start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   void predict(double dt, const std::optional<CameraMotion>& motion);
   /// The state seen from the camera after `motion`: position and velocity rotated and the

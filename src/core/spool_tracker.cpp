@@ -206,6 +206,11 @@ void SpoolTracker::setParams(const DetectorParams& params)
   params_ = params;
 }
 
+bool SpoolTracker::young() const
+{
+  return fused_frames_ < params_.tracker.confirm_frames;
+}
+
 void SpoolTracker::reset()
 {
   active_ = false;
@@ -288,8 +293,7 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   coasted_ = fused ? 0 : coasted_ + (followed_rib ? 0 : 1);
   // A track younger than track_confirm_frames fused frames has no velocity to coast on (the robot's
   // 1-3 cm a frame at 10 Hz is 1-3% of the depth per frame): it ends at the first frame it misses.
-  const bool young = fused_frames_ < params_.tracker.confirm_frames;
-  if (coasted_ > (young ? 0 : params_.tracker.max_coast))
+  if (coasted_ > (young() ? 0 : params_.tracker.max_coast))
   {
     tracked_.state = TrackState::kLost;
     tracked_.aligned = false;
@@ -430,7 +434,7 @@ bool SpoolTracker::isRibRing(const SpoolDetection& detection) const
   // Not against a young track: its first frame may have been the wrong circle (one too big, about
   // the bore, makes the flange itself look like a ring inside it), or its prediction may have run
   // away (a wrong second frame gives it a metre a second).
-  if (fused_frames_ < params_.tracker.confirm_frames)
+  if (young())
     return false;
   const Eigen::Vector3d p = x_.head<3>();
   const Eigen::Vector3d q = toEigen(detection.position);
@@ -602,7 +606,7 @@ bool SpoolTracker::refuteTrack(const SpoolDetection& detection, const Measuremen
       referenceDistance(detection.position, detection.reference, camera) + flangeRadiusPx(detection) <
           referenceDistance({p.x(), p.y(), p.z()}, detection.reference, camera);
   return ((consistent || consistent_whole) && detection.hole_detected && detection.confidence >= support_) ||
-         the_target || fused_frames_ < params_.tracker.confirm_frames;
+         the_target || young();
 }
 
 void SpoolTracker::publish(bool fused)
@@ -673,7 +677,7 @@ std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const Camer
   // the gate are wide enough to admit the wrong circle the window's lowered sensitivity finds (one
   // fused there turns the velocity, and the track runs off). A coasting track keeps its window: a
   // rib ring followed at the end of an approach leaves the flange, cut by the frame, to it.
-  if (!active_ || tracked_.state == TrackState::kLost || fused_frames_ < params_.tracker.confirm_frames || !last_stamp_)
+  if (!active_ || tracked_.state == TrackState::kLost || young() || !last_stamp_)
     return std::nullopt;
   const double dt = stamp - *last_stamp_;
   if (dt < 0.0 || dt > kMaxGap || (last_interval_ > 0.0 && dt > kDroppedFrameRatio * last_interval_))
