@@ -201,8 +201,8 @@ private:
   /// `covariance` (m^2), from the last one `refuter` counted, given both their errors and the
   /// track's (infinite when it counted none): within track_gate^2 it is the same thing.
   double distance2To(const Refuter& refuter, const Eigen::Vector3d& offset, const Eigen::Matrix3d& covariance) const;
-  /// The detection (position covariance `covariance`) is the thing refused on the last two frames
-  /// or more (consecutive_) and lies nearer it than the track's prediction (Mahalanobis).
+  /// The detection (position covariance `covariance`) is the thing refused on the frame before
+  /// (consecutive_) and lies nearer it than the track's prediction (Mahalanobis).
   bool repeatsRefused(const SpoolDetection& detection, const Eigen::Matrix3d& covariance) const;
   void publish(bool fused);
   /// The filter's position covariance plus the depth bias it cannot average out (bias_).

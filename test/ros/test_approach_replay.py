@@ -2,9 +2,10 @@
 """rostest: an approach sequence (110 -> 50 cm) replayed from a bag through replay.launch.
 Every frame must be detected, its distance within tolerance of the ground truth, and `aligned`
 true exactly where the ground truth says so, which is only in the final frames. With the node's
-`track` on (~track), the tracked values: one track over the whole approach, its covariance and
-~pose_with_covariance on every frame, `aligned` never where the ground truth says the puller would
-touch and on at least 80% of the frames where it would pass."""
+`track` on (~track), the tracked values: one track over the whole approach, held from the first
+frame and published from its track_confirm_frames-th on (searching, not detected, before), its
+covariance and ~pose_with_covariance on every published frame, `aligned` never where the ground
+truth says the puller would touch and on at least 80% of the frames where it would pass."""
 import glob
 import json
 import math
@@ -33,6 +34,8 @@ class ApproachReplayTest(unittest.TestCase):
         cls.rate = rospy.get_param("~rate", 10.0)
         cls.start = rospy.get_param("~start", 1.0)
         cls.track = rospy.get_param("~track", False)
+        # Frames a track is held before it is published (none without tracking).
+        cls.unpublished = rospy.get_param("/spool_detector/track_confirm_frames", 3) - 1 if cls.track else 0
         cls.truth = []
         for path in sorted(glob.glob(os.path.join(folder, "frame_*.json"))):
             with open(path) as f:
@@ -69,7 +72,10 @@ class ApproachReplayTest(unittest.TestCase):
         wrong = []
         for i, truth in enumerate(self.truth):
             pose = self.frame_pose(i)
-            if not pose.detected:
+            if i < self.unpublished:
+                if pose.detected:
+                    wrong.append("frame %d: a young track published" % i)
+            elif not pose.detected:
                 wrong.append("frame %d: not detected" % i)
             elif abs(pose.distance - truth["distance"]) > DISTANCE_TOLERANCE * truth["distance"]:
                 wrong.append("frame %d: distance %.3f m, truth %.3f m" % (i, pose.distance, truth["distance"]))
@@ -102,11 +108,15 @@ class ApproachReplayTest(unittest.TestCase):
             # The per-frame axis is the rim's, without a sigma.
             self.assertTrue(all(p.axis_cue == SpoolPose.AXIS_CUE_RIM and math.isnan(p.axis_sigma) for p in poses))
             return
-        # One track from the first frame to the last: every frame fused, none refused.
-        self.assertEqual([p.track_state for p in poses], [SpoolPose.TRACK_TRACKING] * len(poses))
+        # One track from the first frame to the last: every frame fused, none refused; published from
+        # its track_confirm_frames-th frame on.
+        self.assertEqual([p.track_state for p in poses], [SpoolPose.TRACK_SEARCHING] * self.unpublished +
+                         [SpoolPose.TRACK_TRACKING] * (len(poses) - self.unpublished))
         self.assertEqual([p.track_age for p in poses], list(range(1, len(poses) + 1)))
         self.assertEqual(poses[-1].track_rejected, 0)
-        for i, p in enumerate(poses):
+        for p in poses[:self.unpublished]:
+            self.assertIsNone(self.with_covariance.get(p.header.stamp))
+        for i, p in enumerate(poses[self.unpublished:], self.unpublished):
             self.assertLess(abs(p.raw_distance - p.distance), 0.03 * p.distance, "frame %d" % i)
             self.assertTrue(all(p.position_covariance[k] > 0.0 for k in (0, 4, 8)), "frame %d" % i)
             with_covariance = self.with_covariance.get(p.header.stamp)

@@ -235,8 +235,15 @@ TEST_F(SpoolDetectCli, TrackFollowsTheImagesInOrderAndAddsItsFields)
   {
     const std::string& line = run.lines[i];
     SCOPED_TRACE(line);
-    EXPECT_EQ(field(line, "track_state"), "\"tracking\"");
     EXPECT_EQ(field(line, "track_age"), std::to_string(i + 1));
+    // Held from the first image, published from the track_confirm_frames-th (default 3) on.
+    if (i + 1 < 3)
+    {
+      EXPECT_EQ(field(line, "track_state"), "\"searching\"");
+      EXPECT_EQ(field(line, "detected"), "false");
+      continue;
+    }
+    EXPECT_EQ(field(line, "track_state"), "\"tracking\"");
     EXPECT_NEAR(number(line, "distance"), number(line, "raw_distance"), 0.01);
     EXPECT_TRUE(has(line, "\"position_covariance\": [")) << line;
     EXPECT_TRUE(has(line, "\"axis\": {\"x\": ")) << line;
