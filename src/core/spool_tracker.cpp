@@ -127,18 +127,12 @@ Eigen::Matrix3d positionCovariance(const SpoolDetection& d, const MeasurementNoi
 // whole track. (A bias of the per-sequence means alone, 0.25 px radius and 0.15 px centre, held the
 // truth in 3 sigma on 92% of the frames at 160x120; this floor 97%.)
 constexpr double kRadiusBiasPx = 0.25;
-// ... and at least this fraction of the radius: a large rim, cut by the frame at the end of an
-// approach, comes out further off in px. On the hard approach set (seeds 81-120, per frame) the
-// radius error's RMS was 0.19-0.29% of the radius above 70 px at 320x240 and 640x480 (0.36 and
-// 0.52 px on the largest, cut rims), where 0.25 px left 320x240's 3-sigma check at 95-97%.
-constexpr double kRadiusBiasRelative = 0.003;
 
 Eigen::Matrix3d correlatedCovariance(const SpoolDetection& d, const MeasurementNoise& noise,
                                      const CameraIntrinsics& camera, const TrackerParams& params)
 {
   MeasurementNoise bias = noise;
-  bias.radius_px = std::max({noise.radius_px, params.noise_scale * kRadiusBiasPx,
-                             params.noise_scale * kRadiusBiasRelative * flangeRadiusPx(d)});
+  bias.radius_px = std::max(noise.radius_px, params.noise_scale * kRadiusBiasPx);
   return positionCovariance(d, bias, camera);
 }
 
