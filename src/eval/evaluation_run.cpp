@@ -432,6 +432,24 @@ EvaluationResult runEvaluation(const EvaluationConfig& config, const Progress& p
     }
     rendered.clear();
 
+    // Whole approaches, shared by the size's setups like the sets.
+    const bool tracked =
+        std::any_of(of_size.begin(), of_size.end(), [&](std::size_t s) { return config.setups[s].track; });
+    for (int a = 0; tracked && a < config.approaches; ++a)
+    {
+      const std::uint64_t seed = config.seed * 1000 + static_cast<std::uint64_t>(a) + 1;
+      const std::vector<RenderedFrame> approach =
+          renderSet(SpoolRenderer(setCamera(FrameSet::kApproachHard, size)), FrameSet::kApproachHard, seed,
+                    EvaluationConfig::kApproachFrames);
+      for (std::size_t s : of_size)
+        if (config.setups[s].track)
+          result.setups[s].approaches.push_back(
+              trackApproach(config.setups[s].params, approach, EvaluationConfig::kApproachRate, seed));
+      if (progress)
+        progress("approaches @ " + std::to_string(size.width) + "x" + std::to_string(size.height), a + 1,
+                 config.approaches);
+    }
+
     for (std::size_t s : of_size)
     {
       const Setup& setup = config.setups[s];

@@ -2,6 +2,7 @@
 #include <cmath>
 
 #include "spool_vision/eval/evaluation.h"
+#include "spool_vision/spool_tracker.h"
 
 namespace spool_vision
 {
@@ -303,6 +304,46 @@ WorstFrame worstFrame(SpoolDetector& detector, const std::vector<RenderedFrame>&
         return detector.detect(frames[i].image, PixelFormat::kBgr8).time_ms;
       },
       runs);
+}
+
+ApproachTracking trackApproach(const DetectorParams& params, const std::vector<RenderedFrame>& frames, double rate,
+                               std::uint64_t seed)
+{
+  ApproachTracking a;
+  a.seed = seed;
+  if (frames.empty())
+    return a;
+  TrackingDetector tracking(params);
+  tracking.detector().setCamera(frames.front().truth.camera);
+  for (std::size_t i = 0; i < frames.size(); ++i)
+  {
+    const GroundTruth& truth = frames[i].truth;
+    const TrackedFrame f = tracking.process(frames[i].image, PixelFormat::kBgr8, static_cast<double>(i) / rate);
+    ++a.frames;
+    (f.full_search ? a.full_search_ms : a.windowed_ms).push_back(f.raw.time_ms);
+    a.truly_aligned += truth.aligned ? 1 : 0;
+    const SpoolDetection& out = f.published;
+    if (!out.detected)
+      continue;
+    ++a.published;
+    a.aligned_on_truly += out.aligned && truth.aligned ? 1 : 0;
+    a.aligned_touching += out.aligned && !truth.puller_clears ? 1 : 0;
+    const cv::Vec3d error(out.position.x - truth.position.x, out.position.y - truth.position.y,
+                          out.position.z - truth.position.z);
+    if (!(std::hypot(error[0], error[1]) < ApproachTracking::kOtherSpoolDistance))
+    {
+      ++a.other_spool;
+      continue;
+    }
+    const double depth_error = std::abs(out.distance - truth.distance) / truth.distance;
+    a.max_depth_error = std::max(a.max_depth_error, depth_error);
+    a.over_3_percent += depth_error > 0.03 ? 1 : 0;
+    // Mahalanobis distance <= 3: 97.1% of an honest 3-D Gaussian's draws.
+    cv::Matx33d inverse;
+    if (cv::invert(f.track.position_covariance, inverse, cv::DECOMP_CHOLESKY) != 0.0)
+      a.covariance_holds += (error.t() * inverse * error)(0) <= 9.0 ? 1 : 0;
+  }
+  return a;
 }
 
 }  // namespace spool_vision

@@ -107,6 +107,14 @@ int CommandLine::positiveInteger(const std::string& key, int max_value, int fall
   return static_cast<int>(number);
 }
 
+int CommandLine::nonNegativeInteger(const std::string& key, int max_value, int fallback) const
+{
+  const std::uint64_t number = seed(key, static_cast<std::uint64_t>(fallback));
+  if (number > static_cast<std::uint64_t>(max_value))
+    throw UsageError(key + ": expected an integer in [0, " + std::to_string(max_value) + "], got '" + text(key) + "'");
+  return static_cast<int>(number);
+}
+
 std::uint64_t CommandLine::seed(const std::string& key, std::uint64_t fallback) const
 {
   if (!every_.count(key))

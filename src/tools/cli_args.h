@@ -62,6 +62,8 @@ public:
   double positiveNumber(const std::string& key, double fallback) const;
   /// The option as an integer in [1, max_value], `fallback` when it was not given.
   int positiveInteger(const std::string& key, int max_value, int fallback) const;
+  /// The option as an integer in [0, max_value], `fallback` when it was not given.
+  int nonNegativeInteger(const std::string& key, int max_value, int fallback) const;
   /// The option as a non-negative integer (a random seed), `fallback` when it was not given.
   std::uint64_t seed(const std::string& key, std::uint64_t fallback) const;
 

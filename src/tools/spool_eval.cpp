@@ -30,7 +30,7 @@ namespace
 const char* const kUsage =
     "usage: spool_eval --out DIR [--count N] [--negatives N] [--hard N] [--distorted N]\n"
     "                  [--sizes WxH,...] [--repeats N] [--seed S] [--quick] [--config-dir DIR]\n"
-    "                  [--require-bars] [--no-charts]\n"
+    "                  [--approaches N] [--require-bars] [--no-charts]\n"
     "  --out DIR         report folder: report.md, charts.json and the PNG charts (created)\n"
     "  --count N         main-set frames per setup (default 400, --quick 60)\n"
     "  --negatives N     negatives-set frames per setup (default half of --count)\n"
@@ -40,6 +40,8 @@ const char* const kUsage =
     "                    slow). Sizes other than 160x120 and 640x480 get half the counts, above\n"
     "                    640x480 a quarter\n"
     "  --repeats N       scenes per controlled pose (default 3, --quick 1)\n"
+    "  --approaches N    approach_hard sequences per size followed by the tracker with\n"
+    "                    default.yaml (40 frames at 10 Hz each; default 4, --quick 2; 0 = none)\n"
     "  --seed S          the sets are a function of the seed (default 1)\n"
     "  --quick           a small sample for a first look\n"
     "  --config-dir DIR  folder with seed.yaml and default.yaml (default: the package's config/)\n"
@@ -56,6 +58,7 @@ struct Options
   sv::FrameCounts counts;  ///< at 160x120 and 640x480 (countsAt() scales the other sizes)
   std::vector<cv::Size> sizes;
   int repeats = 0;
+  int approaches = 0;
   std::uint64_t seed = 1;
   bool quick = false;
   std::string config_dir = SPOOL_VISION_SOURCE_DIR "/config";
@@ -88,10 +91,10 @@ std::vector<cv::Size> parseSizes(const std::string& text)
 
 Options parseOptions(int argc, char** argv)
 {
-  const sv::cli::CommandLine line(
-      argc, argv,
-      {"--out", "--count", "--negatives", "--hard", "--distorted", "--sizes", "--repeats", "--seed", "--config-dir"},
-      kUsage, false, {"--quick", "--require-bars", "--no-charts"});
+  const sv::cli::CommandLine line(argc, argv,
+                                  {"--out", "--count", "--negatives", "--hard", "--distorted", "--sizes", "--repeats",
+                                   "--seed", "--config-dir", "--approaches"},
+                                  kUsage, false, {"--quick", "--require-bars", "--no-charts"});
   Options o;
   o.out = line.text("--out");
   o.quick = line.has("--quick");
@@ -104,6 +107,7 @@ Options parseOptions(int argc, char** argv)
               line.positiveInteger("--distorted", 100000, main_frames)};
   o.sizes = parseSizes(line.text("--sizes", "160x120,320x240,640x480"));
   o.repeats = line.positiveInteger("--repeats", 100, 0);
+  o.approaches = line.nonNegativeInteger("--approaches", 1000, o.quick ? 2 : 4);
   o.seed = line.seed("--seed", o.seed);
   o.config_dir = line.text("--config-dir", o.config_dir);
   if (o.out.empty())
@@ -168,7 +172,7 @@ int run(int argc, char** argv)
     const sv::DetectorParams tuned = loadConfig(options.config_dir, "default.yaml");
     const cv::Size thesis_size(160, 120);
     config.setups.push_back({"seed.yaml @ 160x120", thesis_size, seed, sv::QualityBars::thesisReproduction(),
-                             countsAt(options, thesis_size), true});
+                             countsAt(options, thesis_size), true, false});
     for (cv::Size size : options.sizes)
       // The thesis analyses at 640x480 only: they are the slow part and the thesis setup covers 160x120.
       config.setups.push_back({"default.yaml @ " + sizeName(size), size, tuned, sv::QualityBars::forDefault(size),
@@ -181,6 +185,7 @@ int run(int argc, char** argv)
   }
   config.seed = options.seed;
   config.pose_repeats = options.repeats;
+  config.approaches = options.approaches;
   std::cerr << "spool_eval: frames per setup (main / negatives / hard / distorted):";
   for (const sv::Setup& setup : config.setups)
     std::cerr << " " << setup.name << " " << setup.counts.main << "/" << setup.counts.negatives << "/"
@@ -197,7 +202,7 @@ int run(int argc, char** argv)
   else
     std::cerr << "spool_eval: charts not drawn (--no-charts): scripts/plot_charts.py " << charts
               << " draws the PNGs report.md shows\n";
-  std::cout << sv::headlineTable(result) << "\n" << sv::poseTable(result);
+  std::cout << sv::headlineTable(result) << "\n" << sv::poseTable(result) << "\n" << sv::approachTable(result);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cerr << "spool_eval: done in " << static_cast<int>(seconds)
             << " s; report: " << (std::filesystem::path(options.out) / "report.md").string() << "\n";

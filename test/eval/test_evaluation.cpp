@@ -462,7 +462,7 @@ TEST(Scoring, PoseErrorsAndAlignmentOnHandMadeFrames)
   r.config.groups = {{"distorted", {sv::FrameSet::kDistorted}, true}};
   sv::GroupResult group;
   group.metrics = unmeasured;
-  r.setups = {{{group}}};
+  r.setups = {{{group}, {}}};
   const std::vector<sv::BarRow> rows = sv::poseRows(r, 0);
   ASSERT_EQ(rows.size(), 11u);
   EXPECT_EQ(rows[7].per_setup[0].measured, "n/a (not measured)");  // axis-angle p95
@@ -565,7 +565,7 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
   good.metrics.axis_angle_error_deg = {0.3, 0.9, 100, 100};
   good.metrics.unsafe_aligned = {0, 900};
   good.metrics.aligned_recall = {48, 50};
-  const sv::SetupResult all_good{{good, good, good}};  // main + negatives, hard, distorted
+  const sv::SetupResult all_good{{good, good, good}, {}};  // main + negatives, hard, distorted
   r.setups = {all_good, all_good, all_good};
   auto reset = [&] { r.setups = {all_good, all_good, all_good}; };
   for (size_t s = 0; s < 3; ++s)
@@ -864,6 +864,29 @@ TEST(Evaluation, SmallRenderedSetsMeetLooseBars)
   EXPECT_LE(m640.yaw_error_deg.median, 0.1);
 }
 
+TEST(Evaluation, AHardApproachFollowedByTheTrackerStaysOnItsSpool)
+{
+  // approach_hard seed 1001 at 320x240 (40 frames, 10 Hz), default.yaml: published from the
+  // third frame (a young track is held), every published frame on the spool, within 3% of its
+  // depth, and its 3-sigma ellipsoid holding the truth. A tracker that published another spool
+  // or jumped would fail here.
+  const std::vector<sv::RenderedFrame> frames =
+      sv::renderSet(sv::SpoolRenderer(sv::setCamera(sv::FrameSet::kApproachHard, {320, 240})),
+                    sv::FrameSet::kApproachHard, 1001, sv::EvaluationConfig::kApproachFrames);
+  const sv::ApproachTracking a =
+      sv::trackApproach(config("default.yaml"), frames, sv::EvaluationConfig::kApproachRate, 1001);
+  EXPECT_EQ(a.frames, 40);
+  EXPECT_GE(a.published, 36);
+  EXPECT_LE(a.published, 38);  // never the young track's first two frames
+  EXPECT_EQ(a.other_spool, 0);
+  EXPECT_EQ(a.over_3_percent, 0);
+  EXPECT_LT(a.max_depth_error, 0.01);
+  EXPECT_GE(a.covariance_holds, a.published - 1);
+  EXPECT_EQ(a.aligned_touching, 0);
+  EXPECT_EQ(a.windowed_ms.size() + a.full_search_ms.size(), 40u);
+  EXPECT_GT(a.windowed_ms.size(), 20u);  // the track searched where it predicts the spool
+}
+
 TEST(Evaluation, TheReportHoldsEveryTableAndChart)
 {
   sv::EvaluationConfig small;
@@ -873,14 +896,17 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
                    config("seed.yaml"),
                    sv::QualityBars::thesisReproduction(),
                    {12, 6, 4, 6},
-                   true},
+                   true,
+                   false},
                   {"default.yaml @ 160x120",
                    {160, 120},
                    config("default.yaml"),
                    sv::QualityBars::forDefault({160, 120}),
                    {6, 3, 2, 3},
-                   false}};
+                   false,
+                   true}};
   small.pose_repeats = 1;
+  small.approaches = 1;
   int progress_calls = 0;
   const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
   EXPECT_GT(progress_calls, 18);
@@ -893,6 +919,9 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   EXPECT_EQ(r.setups[1].per_group[0].frames, 9);
   EXPECT_EQ(r.setups[1].per_group[1].frames, 2);
   EXPECT_EQ(r.setups[1].per_group[2].frames, 3);
+  EXPECT_TRUE(r.setups[0].approaches.empty());
+  ASSERT_EQ(r.setups[1].approaches.size(), 1u);
+  EXPECT_EQ(r.setups[1].approaches[0].frames, sv::EvaluationConfig::kApproachFrames);
   for (const sv::SetupResult& setup : r.setups)
     for (const sv::GroupResult& group : setup.per_group)
     {
@@ -927,7 +956,8 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   md << in.rdbuf();
   for (const char* heading : {"## Headline", "hard set", "## Pose and alignment", "distorted (C270 lens) set",
                               "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization",
-                              "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r"})
+                              "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r",
+                              "## The tracker over whole approaches", "default.yaml @ 160x120 | 1001"})
     EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
   // The charts' data: one chart per PNG the report shows, its points the tables' numbers.
   const nlohmann::json charts = nlohmann::json::parse(std::ifstream(dir / "charts.json"))["charts"];

@@ -336,6 +336,9 @@ struct Setup
   QualityBars bars;
   FrameCounts counts;
   bool analyses = true;  ///< also run the thesis' chapter 4 analyses (variants, lamps, poses)
+  /// follow EvaluationConfig::approaches with the tracker (whose error model is the tuned
+  /// detector's: not the thesis reproduction)
+  bool track = true;
 };
 
 /// Sets scored together; the headline has one table per group, and so has the pose report.
@@ -354,7 +357,38 @@ struct EvaluationConfig
                                   {"distorted (C270 lens)", {FrameSet::kDistorted}, true}};
   std::uint64_t seed = 1;
   int pose_repeats = 3;  ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
+  /// approach_hard sequences per size followed by the tracker (seeds seed * 1000 + 1, + 2, ...),
+  /// each kApproachFrames frames at kApproachRate Hz; 0: none
+  int approaches = 0;
+  static constexpr int kApproachFrames = 40;
+  static constexpr double kApproachRate = 10.0;
 };
+
+/// One approach followed by a TrackingDetector (issue 26): its published frames (a track
+/// tracking or coasting) against the truth's target spool.
+struct ApproachTracking
+{
+  /// m: a published bore this far or farther from the target's (x and y, camera frame) is another
+  /// spool's (spools stand ~36 cm apart on the shelf)
+  static constexpr double kOtherSpoolDistance = 0.1;
+  std::uint64_t seed = 0;
+  int frames = 0;
+  int published = 0;
+  int over_3_percent = 0;        ///< published on the target, depth more than 3% off the truth's
+  double max_depth_error = 0.0;  ///< relative, over the published frames on the target
+  int other_spool = 0;
+  int truly_aligned = 0;               ///< frames the truth calls aligned
+  int aligned_on_truly = 0;            ///< of them, reported aligned
+  int aligned_touching = 0;            ///< reported aligned where the puller would touch the bore
+  int covariance_holds = 0;            ///< published frames whose 3-sigma ellipsoid holds the truth's bore front centre
+  std::vector<double> windowed_ms;     ///< per frame searched in the tracker's window only
+  std::vector<double> full_search_ms;  ///< per frame searched whole
+};
+
+/// Follows `frames` (one approach, in order, stamped i / rate) with a TrackingDetector of
+/// `params` through the frames' camera, scoring each frame (ApproachTracking).
+ApproachTracking trackApproach(const DetectorParams& params, const std::vector<RenderedFrame>& frames, double rate,
+                               std::uint64_t seed);
 
 /// A detector variant (parameter overrides on each setup's configuration) and its metrics, on the
 /// first group's frames; setups without analyses hold empty metrics.
@@ -411,7 +445,8 @@ struct GroupResult
 
 struct SetupResult
 {
-  std::vector<GroupResult> per_group;  ///< in EvaluationConfig::groups' order
+  std::vector<GroupResult> per_group;        ///< in EvaluationConfig::groups' order
+  std::vector<ApproachTracking> approaches;  ///< EvaluationConfig::approaches, in seed order
 };
 
 struct EvaluationResult
@@ -453,6 +488,10 @@ std::vector<BarRow> poseRows(const EvaluationResult& result, size_t group);
 
 /// The pose and alignment tables in Markdown: one per group, a column per setup.
 std::string poseTable(const EvaluationResult& result);
+
+/// The tracker over whole approaches in Markdown: per setup the totals, then per approach; ""
+/// without approaches.
+std::string approachTable(const EvaluationResult& result);
 
 /// True when every bar that applies to setup `index` passes on every group (headline and pose).
 bool barsPass(const EvaluationResult& result, size_t index);
