@@ -449,6 +449,14 @@ std::string approachTable(const EvaluationResult& result)
   auto ratio = [](int n, int of) { return std::to_string(n) + "/" + std::to_string(of); };
   auto median = [](const std::vector<double>& v)
   { return v.empty() ? std::string("-") : fixed(percentile(v, 0.5), 2); };
+  // The columns a total and an approach share: published, over 3%, other spool, aligned, touching.
+  auto counts = [&](const ApproachTracking& a, std::vector<std::string>& row)
+  {
+    row.insert(row.end(), {ratio(a.published, a.frames),
+                           std::to_string(a.over_3_percent) + " (" + fixed(100.0 * a.max_depth_error, 2) + ")",
+                           std::to_string(a.other_spool), ratio(a.aligned_on_truly, a.truly_aligned),
+                           std::to_string(a.aligned_touching)});
+  };
   std::vector<std::vector<std::string>> totals;
   std::vector<std::vector<std::string>> rows;
   for (std::size_t s = 0; s < result.setups.size(); ++s)
@@ -471,18 +479,17 @@ std::string approachTable(const EvaluationResult& result)
       sum.covariance_holds += a.covariance_holds;
       sum.windowed_ms.insert(sum.windowed_ms.end(), a.windowed_ms.begin(), a.windowed_ms.end());
       sum.full_search_ms.insert(sum.full_search_ms.end(), a.full_search_ms.begin(), a.full_search_ms.end());
-      rows.push_back({name, std::to_string(a.seed), ratio(a.published, a.frames),
-                      std::to_string(a.over_3_percent) + " (" + fixed(100.0 * a.max_depth_error, 2) + ")",
-                      std::to_string(a.other_spool), ratio(a.aligned_on_truly, a.truly_aligned),
-                      std::to_string(a.aligned_touching), ratio(a.covariance_holds, a.published - a.other_spool)});
+      std::vector<std::string> row = {name, std::to_string(a.seed)};
+      counts(a, row);
+      row.push_back(ratio(a.covariance_holds, a.published - a.other_spool));
+      rows.push_back(row);
     }
     const int on_target = sum.published - sum.other_spool;
-    totals.push_back({name, std::to_string(approaches.size()), ratio(sum.published, sum.frames),
-                      std::to_string(sum.over_3_percent) + " (" + fixed(100.0 * sum.max_depth_error, 2) + ")",
-                      std::to_string(sum.other_spool), ratio(sum.aligned_on_truly, sum.truly_aligned),
-                      std::to_string(sum.aligned_touching),
-                      on_target > 0 ? percent(static_cast<double>(sum.covariance_holds) / on_target) : "-",
-                      median(sum.windowed_ms) + " / " + median(sum.full_search_ms)});
+    std::vector<std::string> total = {name, std::to_string(approaches.size())};
+    counts(sum, total);
+    total.push_back(on_target > 0 ? percent(static_cast<double>(sum.covariance_holds) / on_target) : "-");
+    total.push_back(median(sum.windowed_ms) + " / " + median(sum.full_search_ms));
+    totals.push_back(total);
   }
   if (totals.empty())
     return "";
