@@ -155,6 +155,18 @@ struct GeometryParams
 };
 
 /// Following one spool over the approach (SpoolTracker, DESIGN.md §8).
+/// How a followed spool is measured in the frames between whole-frame searches
+/// (SpoolTracker::flangeWindow(), SpoolDetector::detect()).
+enum class TrackMeasurement
+{
+  /// Moving edges along the flange rim the track predicts (MovingEdges), the bore then fitted at
+  /// its known size where the track puts it: only the pixels on the rim's normals and about the
+  /// bore are read.
+  kMovingEdges,
+  /// A Hough search of the flange in the predicted window, whose square is preprocessed whole.
+  kWindow
+};
+
 struct TrackerParams
 {
   /// m/s^2, white-noise acceleration of the bore's front centre relative to the camera (the
@@ -192,6 +204,8 @@ struct TrackerParams
   /// frames: while tracking the flange is searched in the predicted window, and in the whole
   /// frame every this many frames (1 = always the whole frame)
   int full_search_interval = 10;
+  /// how the flange is measured in the frames between whole-frame searches
+  TrackMeasurement measurement = TrackMeasurement::kMovingEdges;
 };
 
 struct DetectorParams

@@ -45,6 +45,9 @@ public:
   /// The two halves of detect(): gradients of the whole frame once, then edges of any region
   /// at any threshold (the faint hole rim is extracted at a lower threshold in its small window).
   void computeGradients(const cv::Mat& gray8);
+  /// computeGradients() inside `region` (px of the raw frame) only, with `gray8` as detect()'s
+  /// region overload needs it; extract() calls then see only `region`.
+  void computeGradients(const cv::Mat& gray8, const cv::Rect& region);
   /// detect() for a search window: gradients and edges inside `region` (px of the raw frame)
   /// only, the same edges as detect() finds there while `max_edges` does not bind. `gray8` must
   /// hold the frame's pixels within 2 px of `region` (Preprocessor::process with a region 2 px
@@ -142,6 +145,14 @@ struct RimMoments
   /// False without points on both sides and in at least 5 octants, or when no ellipse fits.
   bool fitEllipse(double& x, double& y, double& semi_x, double& semi_y) const;
 };
+
+/// One least-squares step of a rim model on `m`, moments taken in coordinates centred on `model`
+/// and scaled by 1 / mean_r. The model is an axis-aligned ellipse (centre, r_horizontal,
+/// r_vertical: a circle seen from a yawed camera is stretched horizontally) and r, the radius of
+/// the circle fitted with it: the circle fit (Kasa), its centre and semi-axes replaced by the
+/// ellipse fit's where that stays within 20% of the circle on both axes (a yawed rim; further off,
+/// the ellipse has fitted clutter). False when no circle fits; `model` unchanged then.
+bool fitRimModel(const RimMoments& m, double mean_r, Circle& model);
 
 /// Search settings for one radius range.
 struct HoughSearch

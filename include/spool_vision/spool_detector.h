@@ -9,6 +9,7 @@
 #include "spool_vision/concentric_matcher.h"
 #include "spool_vision/detector_params.h"
 #include "spool_vision/hough_accumulator.h"
+#include "spool_vision/moving_edges.h"
 #include "spool_vision/preprocessor.h"
 #include "spool_vision/spool_geometry.h"
 #include "spool_vision/types.h"
@@ -58,7 +59,12 @@ public:
   /// flange, only the square the window's rims can reach is preprocessed and searched for edges
   /// (the same pixels and edges there as detect()'s, but for the edge budget now spent on that
   /// square alone), and the vote spans a few radii instead of the whole
-  /// working range. Without `window`, detect() exactly.
+  /// working range. A window with a rim prediction (window->rim) is first measured along that
+  /// rim by moving edges (MovingEdges, window->rim_reach px each way, edges of either polarity), kept when it scores as
+  /// the window demands with its vertical semi-axis and centre in the window; its bore is then fitted at its known size
+  /// about the window's centre (window->bore_reach px), and only the bore's surroundings are preprocessed; its edges on
+  /// the fit are the rim SpoolGeometry fits the pose to. Where that rim is not found, the window is searched as above.
+  /// Without `window`, detect() exactly.
   SpoolDetection detect(const cv::Mat& image, PixelFormat format, const std::optional<FlangeWindow>& window);
   /// The camera the last frame was measured with (the thesis camera when none fit the frame);
   /// the thesis camera at 640x480 before any frame.
@@ -104,9 +110,27 @@ public:
   /// 320x240 is measured to about a pixel).
   static constexpr double kOwnBoreAgreement = 0.05;
   static constexpr double kOwnBoreAgreementPx = 1.0;
+  /// Around a tracked rim's hole window the pixels within this many of its largest radius are
+  /// preprocessed: the bore's disc contrast reads a ring out to twice its radius.
+  static constexpr double kDiscReach = 2.2;
+  /// px: a smaller bore (160x120) is not measured again at its known size: half a rim of a few
+  /// pixels has too few edges to place it better than the free fit, and there the lit band is
+  /// within a pixel of the rim anyway.
+  static constexpr double kMinKnownSizeRadius = 6.0;
+  /// A free hole fit's centre lies within this fraction of its radius of the bore's.
+  static constexpr double kKnownSizeShift = 0.25;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
+  /// preprocessed_ and the edge detector's gradients for the circles whose centres lie in
+  /// `centres` and reach `reach` px beyond (undistorted px): only their pixels; with
+  /// `flange_edges`, edges_ too (edge_threshold).
+  void prepareAround(const cv::Mat& image, PixelFormat format, const cv::Rect2d& centres, double reach,
+                     bool flange_edges);
+  /// `window`'s rim measured by moving edges (detect()); false when it is not found as
+  /// `flange_search` (the window's) demands.
+  bool measureAlongRim(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
+                       const HoughSearch& flange_search, Circle& flange);
   /// rim_: the edges of the result's flange rim (for SpoolGeometry::fitRimPose).
   void gatherRim(const SpoolDetection& result, Polarity polarity);
   /// Whether the result's bore, measured at its own size, says its flange is an inner ring: then
@@ -150,9 +174,16 @@ private:
   /// it by bore_contrast.
   std::optional<std::size_t> strongFlangeWithBore(const HoughSearch& hole_search) const;
   /// The target's hole measured again at the size its flange gives it (the rim's far side hides
-  /// behind the lit bore wall, so a free fit comes out small and off centre); kept when its
-  /// support passes hole_sensitivity.
-  void measureBoreAtKnownSize(SpoolDetection& result);
+  /// behind the lit bore wall, so a free fit comes out small and off centre); kept (true) when its
+  /// support passes hole_sensitivity. Its centre is searched within `max_shift` px of the hole's
+  /// (default kKnownSizeShift of its radius plus a px).
+  bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt);
+  /// mcht with a dark hole: the tracked flange (flanges_'s only one) and its bore measured at its
+  /// known size about the window's centre (where the track puts the bore's front centre), when
+  /// that bore passes the concentric rule, lies at the puller's level and counts on its flange
+  /// (holeCountsOn); then `result` is that spool (and its lens) and true.
+  /// Only the pixels about that bore are preprocessed (prepareAround()).
+  bool boreAtPrediction(const cv::Mat& image, PixelFormat format, const FlangeWindow& window, SpoolDetection& result);
   /// holes_: the hole rims among hole_edges_ (hole_hough_), less those scoring under
   /// weak_hole_score whose disc does not differ from the face by bore_contrast.
   void detectHoles(const HoughSearch& hole_search);
@@ -185,7 +216,8 @@ private:
   EdgeDetector edge_detector_;
   HoughAccumulator flange_hough_;
   HoughAccumulator hole_hough_;
-  HoughAccumulator lens_hough_;  ///< its own: a shared one would be resized every frame
+  HoughAccumulator lens_hough_;
+  MovingEdges moving_edges_;  ///< its own: a shared one would be resized every frame
   ConcentricMatcher matcher_;
   std::optional<CameraIntrinsics> camera_;
   std::optional<SpoolGeometry> geometry_;

@@ -142,6 +142,11 @@ public:
 
   /// Fraction of the predicted radius the flange window's radius margin adds.
   static constexpr double kRadiusSpread = 0.04;
+  /// px the moving edges search beyond 3 sigma of the predicted rim (FlangeWindow::rim_reach).
+  static constexpr double kRimReachPad = 2.0;
+  /// The moving edges search at most this fraction of the predicted radius each way: a rib ring is
+  /// at most 86% of the flange's size.
+  static constexpr double kMaxRimReach = 0.07;
 
   /// Drops the track (e.g. a new camera).
   void reset();

@@ -125,6 +125,15 @@ inline int matTypeOf(PixelFormat format)
   return -1;
 }
 
+/// The rim a track predicts: a circle of `radius` (m) about `centre` (m, camera optical frame,
+/// REP 103) in the plane normal to `axis` (unit; NaN: facing the camera).
+struct RimPrediction
+{
+  cv::Point3d centre;
+  cv::Vec3d axis;
+  double radius = 0.0;  ///< 0: no prediction
+};
+
 /// Where a followed spool's flange will be (SpoolTracker::flangeWindow), for
 /// SpoolDetector::detect(): pixels of the undistorted image (the frame without lens distortion).
 struct FlangeWindow
@@ -133,6 +142,11 @@ struct FlangeWindow
   double centre_margin = 0.0;  ///< px either way, in x and y
   double radius = 0.0;         ///< the flange rim's vertical semi-axis (px)
   double radius_margin = 0.0;  ///< px either way
+  /// The whole rim, for a measurement by moving edges along it (MovingEdges) instead of a Hough
+  /// search of the window; none (radius 0) in a window without a track's pose
+  RimPrediction rim;
+  double rim_reach = 0.0;   ///< px each way along the rim's normal the moving edges search
+  double bore_reach = 0.0;  ///< px: 3 sigma of where the bore's front centre shows, plus a px
 };
 
 /// What the detector reports for one frame. Undefined numbers are NaN, never stale values.

@@ -225,6 +225,10 @@ std::vector<ParamSpec> buildSpecs()
       number("track_full_search_interval", FIELD(tracker.full_search_interval), 1, 1000, "frames",
              "while tracking the flange is searched where the track predicts it, the whole frame every this many "
              "frames (1 = always)"),
+      choice<TrackMeasurement>("track_measurement", FIELD(tracker.measurement), {"moving_edges", "window"},
+                               "how the tracked flange is measured between whole-frame searches: moving_edges = "
+                               "along the rim the track predicts (its normals only) and the bore at its known size "
+                               "where the track puts it, or window = a Hough search of the predicted window"),
   };
 }
 #undef FIELD

@@ -231,7 +231,7 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size, con
   return static_cast<double>(inside) / kRimSamples;
 }
 
-inline void RimMoments::add(double u, double v)
+void RimMoments::add(double u, double v)
 {
   const double uu = u * u;
   const double vv = v * v;
@@ -329,6 +329,11 @@ void EdgeDetector::detect(const cv::Mat& gray8, double threshold, std::size_t ma
   const cv::Rect inner = region & cv::Rect(0, 0, gray8.cols, gray8.rows);
   computeGradientsIn(gray8, inner);
   extractRaw(threshold, inner, max_edges, edges, nullptr);
+}
+
+void EdgeDetector::computeGradients(const cv::Mat& gray8, const cv::Rect& region)
+{
+  computeGradientsIn(gray8, region & cv::Rect(0, 0, gray8.cols, gray8.rows));
 }
 
 void EdgeDetector::setUndistortion(const CameraIntrinsics& camera)
@@ -794,14 +799,6 @@ void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv:
   near_count_ = kept;
 }
 
-namespace
-{
-// One least-squares step of refine()'s rim model, on moments taken in coordinates centred on
-// `model` and scaled by 1 / mean_r. The model is an axis-aligned ellipse (centre, r_horizontal,
-// r_vertical: a circle seen from a yawed camera is stretched horizontally) and r, the radius of
-// the circle fitted with it: the circle fit, its centre and semi-axes replaced by the ellipse
-// fit's where that stays within 20% of the circle on both axes (a yawed rim; further off, the
-// ellipse has fitted clutter). False when no circle fits.
 bool fitRimModel(const RimMoments& m, double mean_r, Circle& model)
 {
   double ux = 0.0;
@@ -829,7 +826,6 @@ bool fitRimModel(const RimMoments& m, double mean_r, Circle& model)
   model = next;
   return true;
 }
-}  // namespace
 
 std::size_t HoughAccumulator::pickBand(const Circle& model, double band, float sign)
 {

@@ -76,6 +76,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
   matcher_ = ConcentricMatcher(params_.matcher, params_.geometry, camera);
   preprocessor_.setParams(params_.preprocess, camera.fy);
   edge_detector_.setUndistortion(camera);
+  moving_edges_.setCamera(camera);
   return *geometry_;
 }
 
@@ -109,25 +110,6 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const SpoolGeometry& geometry = geometryFor(image.size());
   const HoughParams& hp = params_.hough;
 
-  if (window)
-  {
-    // Only the pixels the window's flanges can reach are preprocessed and searched for edges:
-    // the centre window plus the largest radius, an oblique rim's wider semi-axis and the
-    // rim fit's band (kWindowSlack), in raw frame px.
-    const double reach = window->centre_margin + kWindowSlack * (window->radius + window->radius_margin) + kWindowPad;
-    const cv::Rect undistorted(cvFloor(window->centre.x - reach), cvFloor(window->centre.y - reach),
-                               cvCeil(2.0 * reach) + 1, cvCeil(2.0 * reach) + 1);
-    const cv::Rect region = edge_detector_.rawRoi(undistorted, image.size());
-    preprocessor_.process(image, format, preprocessed_,
-                          cv::Rect(region.x - 2, region.y - 2, region.width + 4, region.height + 4));
-    edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_, region);
-  }
-  else
-  {
-    preprocessor_.process(image, format, preprocessed_);
-    edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_);
-  }
-
   double flange_min = 0.0;
   double flange_max = 0.0;
   double hole_min = 0.0;
@@ -152,16 +134,66 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const cv::Point2d reference = geometry.reference(geometry.nominalDistance());
 
   SpoolDetection result;
-  flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
-  const double cost =
-      selectTarget(reference, flange_search, hole_search, params_.matcher.spool_evidence, kNoMatch, result);
+  bool along_rim = window && window->rim.radius > 0.0;
+  // A tracked rim's bore is first measured at its known size where the track puts it; the hole
+  // search runs where that finds no bore rim.
+  bool at_prediction = false;
+  if (along_rim)
+  {
+    // The tracked rim by moving edges; only the hole's surroundings are preprocessed.
+    flanges_.clear();
+    edges_.clear();
+    Circle flange;
+    along_rim = measureAlongRim(image, format, *window, flange_search, flange);
+    if (along_rim)
+    {
+      flanges_.push_back(flange);
+      at_prediction = boreAtPrediction(image, format, *window, result);
+      HoughSearch holes = hole_search;
+      if (!at_prediction && matcher_.narrowHoleSearch(flange, image.size(), holes))
+        prepareAround(image, format, holes.center_window, kDiscReach * holes.r_max, false);
+    }
+  }
+  if (!along_rim)
+  {
+    // No rim along the prediction (or none predicted): the window's Hough search, or the frame's.
+    if (window)
+    {
+      // Only the pixels the window's flanges can reach are preprocessed and searched for edges:
+      // the centre window plus the largest radius, an oblique rim's wider semi-axis and the
+      // rim fit's band (kWindowSlack), in raw frame px.
+      const double reach = window->centre_margin + kWindowSlack * (window->radius + window->radius_margin) + kWindowPad;
+      prepareAround(image, format, cv::Rect2d(window->centre.x, window->centre.y, 0.0, 0.0), reach, true);
+    }
+    else
+    {
+      preprocessor_.process(image, format, preprocessed_);
+      edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_);
+    }
+    flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
+  }
+  const double cost = at_prediction ? 0.0
+                                    : selectTarget(reference, flange_search, hole_search,
+                                                   params_.matcher.spool_evidence, kNoMatch, result);
   // The second search runs only where it can change the answer: no spool with a hole rim, or
   // one costing more than its flange radius. Within it, no other spool (whose disc cannot
   // overlap this one's) is nearer the reference.
-  const bool retry = hp.flange_retry == FlangeRetry::kAnyPolarity && params_.matcher.mode == MatchMode::kMcht &&
-                     flange_search.polarity != Polarity::kAny && !(cost <= result.flange.r);
+  const bool retry = !along_rim && hp.flange_retry == FlangeRetry::kAnyPolarity &&
+                     params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
+                     !(cost <= result.flange.r);
   const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
-  gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
+  if (along_rim)
+  {
+    // The moving edges on the rim are its edges, while the flange is theirs.
+    const std::vector<cv::Point2f>& on_rim = moving_edges_.rimEdges();
+    rim_.clear();
+    if (result.hole_detected && !flanges_.empty() && result.flange.r == flanges_.front().r)
+      rim_.assign(on_rim.begin(), on_rim.end());
+  }
+  else
+  {
+    gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
+  }
   geometry.measure(result, rim_);
   measureBoreParallax(geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
@@ -175,7 +207,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     // search reuses the frame's buffers).
     const double outer = result.flange.r_vertical * bore.r_vertical / matcher_.holeRadius(result.flange);
     const double margin = kOuterRimMargin * outer;
-    const SpoolDetection flange = detect(image, format, FlangeWindow{{bore.x, bore.y}, 0.25 * margin, outer, margin});
+    FlangeWindow around;
+    around.centre = {bore.x, bore.y};
+    around.centre_margin = 0.25 * margin;
+    around.radius = outer;
+    around.radius_margin = margin;
+    const SpoolDetection flange = detect(image, format, around);
     // Taken only where the two agree: the outer rim's own hole is the bore that was measured (in
     // frame px, as detect() leaves its centres).
     const cv::Point2d seen = distortPixel(geometry.camera(), {bore.x, bore.y});
@@ -187,6 +224,39 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
+}
+
+void SpoolDetector::prepareAround(const cv::Mat& image, PixelFormat format, const cv::Rect2d& centres, double reach,
+                                  bool flange_edges)
+{
+  const cv::Rect undistorted(cvFloor(centres.x - reach), cvFloor(centres.y - reach),
+                             cvCeil(centres.width + 2.0 * reach) + 1, cvCeil(centres.height + 2.0 * reach) + 1);
+  const cv::Rect region = edge_detector_.rawRoi(undistorted, image.size());
+  preprocessor_.process(image, format, preprocessed_,
+                        cv::Rect(region.x - 2, region.y - 2, region.width + 4, region.height + 4));
+  if (flange_edges)
+    edge_detector_.detect(preprocessed_, params_.hough.edge_threshold, edgeBudget(image.size()), edges_, region);
+  else
+    edge_detector_.computeGradients(preprocessed_, region);
+}
+
+bool SpoolDetector::measureAlongRim(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
+                                    const HoughSearch& flange_search, Circle& flange)
+{
+  const PreprocessParams& pre = params_.preprocess;
+  RimSearch search;
+  search.reach = window.rim_reach;
+  // Either way: within a few px of the tracked rim its own edge is the strongest, whichever side
+  // is darker (a grey face against a dark shelf board shows it bright inside, where the dark
+  // search would take the back flange's silhouette around it).
+  search.polarity = Polarity::kAny;
+  search.threshold = params_.hough.edge_threshold;
+  search.sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * geometry_->camera().fy : 0.0;
+  if (!moving_edges_.measure(image, format, window.rim, search, flange))
+    return false;
+  // The window's tests: enough of the rim, and a fit that stayed where the track allows.
+  return flange.score >= flange_search.min_score && flange.r_vertical >= flange_search.r_min &&
+         flange.r_vertical <= flange_search.r_max && flange_search.center_window.contains({flange.x, flange.y});
 }
 
 bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,
@@ -382,18 +452,39 @@ std::optional<SpoolMatch> SpoolDetector::nearestSpool(const cv::Point2d& referen
   return best;
 }
 
-void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
+bool SpoolDetector::boreAtPrediction(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
+                                     SpoolDetection& result)
+{
+  if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright)
+    return false;
+  Circle predicted;
+  predicted.x = window.centre.x;
+  predicted.y = window.centre.y;
+  predicted.r = predicted.r_vertical = matcher_.holeRadius(flanges_.front());
+  if (predicted.r < kMinKnownSizeRadius)
+    return false;
+  const double shift = std::min(kKnownSizeShift * predicted.r + 1.0, window.bore_reach);
+  prepareAround(image, format, cv::Rect2d(predicted.x, predicted.y, 0.0, 0.0),
+                kDiscReach * predicted.r + shift + kWindowPad, false);
+  SpoolDetection bore;
+  takeSpool(flanges_.front(), predicted, bore);
+  if (!measureBoreAtKnownSize(bore, shift) || !matcher_.accepts(bore.flange, bore.hole) ||
+      !geometry_->atPullerLevel(bore.flange, bore.hole.y) || !holeCountsOn(SpoolMatch{bore.flange, bore.hole}))
+    return false;
+  takeSpool(bore.flange, bore.hole, result);
+  findLens(result);
+  return true;
+}
+
+bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift)
 {
   // The bore is a circle on the flange's face, 3.6/35 of it: its ellipse is the flange's, scaled.
   const Circle& flange = result.flange;
   const double scale = matcher_.holeRadius(flange) / flange.r_vertical;
   const double semi_x = scale * (flange.r_horizontal > 0.0 ? flange.r_horizontal : flange.r);
   const double semi_y = scale * flange.r_vertical;
-  // Half a rim of a few pixels (a bore at 160x120) has too few edges to place it better than the
-  // free fit, and there the lit band is within a pixel of the rim anyway.
-  constexpr double kMinRadius = 6.0;  // px
-  if (semi_y < kMinRadius)
-    return;
+  if (semi_y < kMinKnownSizeRadius)
+    return false;
   Circle& hole = result.hole;
   const CameraIntrinsics& camera = geometry_->camera();
   const PreprocessParams& pre = params_.preprocess;
@@ -402,7 +493,9 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   // profile is read over three filter sigmas, the blur the filter is set for at this size.
   const bool in_light = pre.binarize == BinarizeType::kNone;
   const LinearLight light{&preprocessor_.gray(), preprocessor_.linearLight().data(), std::max(2.0, 3.0 * sigma)};
-  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), std::max(semi_x, semi_y) + 0.25 * semi_y + 3.0,
+  // The free fit's centre can be off by a quarter of the radius; a tracked bore's by its 3 sigma.
+  const double shift = max_shift.value_or(kKnownSizeShift * semi_y + 1.0);
+  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), std::max(semi_x, semi_y) + shift + 2.0,
                    in_light ? &light : nullptr);
   HoughSearch search;
   search.polarity = params_.hough.hole_polarity;
@@ -416,10 +509,14 @@ void SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result)
   constexpr double kLitWall = 0.015;  // m
   const cv::Point2d side = std::hypot(outward.x, outward.y) * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
   Circle fitted;
-  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y,
-                                  0.25 * semi_y + 1.0, side, fitted) &&
+  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y, shift,
+                                  side, fitted) &&
       fitted.score >= 1.0 - params_.hough.hole_sensitivity)
+  {
     hole = fitted;
+    return true;
+  }
+  return false;
 }
 
 bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hole_search, Circle& bore)

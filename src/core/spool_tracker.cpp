@@ -696,7 +696,39 @@ std::optional<FlangeWindow> SpoolTracker::flangeWindow(double stamp, const Camer
     p = r * p + Eigen::Vector3d(motion->translation[0], motion->translation[1], motion->translation[2]);
     cov = r * cov * r.transpose();
   }
-  return flangeWindowAt(p, cov, camera, params_);
+  std::optional<FlangeWindow> window = flangeWindowAt(p, cov, camera, params_);
+  // The whole rim for moving edges: the flange's circle about the predicted bore, in the plane the
+  // tracked axis gives (facing the camera before a hole rim gave one). Only after a fused frame:
+  // moving edges see what they are shown, and a rim they measured wrong (a neighbour's arc or the
+  // back flange's silhouette along part of it) would be measured wrong again on every frame
+  // while the gate refuses it; after a refusal or a miss the window's Hough search judges the
+  // whole window.
+  if (!window || params_.tracker.measurement != TrackMeasurement::kMovingEdges ||
+      tracked_.state != TrackState::kTracking)
+    return window;
+  Eigen::Vector3d axis(0.0, 0.0, 1.0);
+  double axis_sigma = params_.matcher.max_view_angle;
+  if (axis_known_)
+  {
+    axis = Eigen::Vector3d(axis_.x(), axis_.y(), 1.0).normalized();
+    axis_sigma = largestSigma(axis_p_);
+    if (motion)
+      axis = toEigen(motion->rotation) * axis;
+  }
+  const double f = std::max(camera.fx, camera.fy);
+  const double z = p.z();
+  const double rim = params_.geometry.flange_diameter / 2.0;
+  window->rim = RimPrediction{{p.x(), p.y(), z}, {axis.x(), axis.y(), axis.z()}, rim};
+  // 3 sigma of where the rim can be: the centre across, the radius with the depth, and the rim
+  // tilting with the axis (its near and far sides at depths R sin(tilt) apart); never as far as
+  // a rib ring (at most 86% of the flange's size).
+  const double sigma_across = std::sqrt(std::max(cov(0, 0), cov(1, 1))) / z;
+  const double sigma_depth = std::sqrt(cov(2, 2)) / z;
+  const double reach =
+      3.0 * (f * sigma_across + window->radius * sigma_depth + window->radius * (rim / z) * axis_sigma) + kRimReachPad;
+  window->rim_reach = std::min(reach, std::max(kMaxRimReach * window->radius, kRimReachPad));
+  window->bore_reach = 3.0 * f * sigma_across + 1.0;
+  return window;
 }
 
 std::optional<FlangeWindow> flangeWindowAt(const Eigen::Vector3d& p, const Eigen::Matrix3d& cov,

@@ -323,6 +323,52 @@ TEST(SpoolDetector, AWindowAroundTheSpoolMeasuresItAsTheWholeFrameDoes)
   EXPECT_GT(cv::countNonZero(pre(cv::Rect(cvRound(whole.flange.x) - 5, cvRound(whole.flange.y) - 5, 10, 10))), 0);
 }
 
+TEST(SpoolDetector, ATrackedRimIsMeasuredAlongItAsTheWholeFrameMeasuresIt)
+{
+  // With the track's rim in the window the flange is measured by moving edges along it and only
+  // the bore's surroundings are preprocessed; the spool comes out as the whole frame's search
+  // measures it.
+  SpoolDetector detector;
+  const DrawnSpool target = spoolAt(kVga, 0.7, -0.04, 0.06);
+  const cv::Mat frame = drawScene({640, 480}, {target, spoolAt(kVga, 0.7, 0.5, 0.06)});
+  const SpoolDetection whole = detector.detect(frame, PixelFormat::kBgr8);
+  ASSERT_TRUE(whole.hole_detected);
+  spool_vision::FlangeWindow window;
+  // The track 2% long and 2 mm to the side.
+  const cv::Point3d predicted(whole.position.x + 0.002, whole.position.y, 1.02 * whole.position.z);
+  window.centre = {kVga.fx * predicted.x / predicted.z + kVga.cx, kVga.fy * predicted.y / predicted.z + kVga.cy};
+  window.radius = kVga.fy * 0.175 / predicted.z;
+  window.centre_margin = 6.0;
+  window.radius_margin = 0.1 * window.radius;
+  window.rim = {predicted, {0.0, 0.0, 1.0}, 0.175};
+  window.rim_reach = 8.0;
+  window.bore_reach = 4.0;
+  const SpoolDetection tracked = detector.detect(frame, PixelFormat::kBgr8, window);
+  ASSERT_TRUE(tracked.hole_detected);
+  EXPECT_NEAR(tracked.flange.x, target.x, 0.1);
+  EXPECT_NEAR(tracked.flange.y, target.y, 0.1);
+  EXPECT_NEAR(tracked.flange.r_vertical, target.flange_r, 0.1);
+  EXPECT_NEAR(tracked.hole.x, whole.hole.x, 0.1);
+  EXPECT_NEAR(tracked.hole.y, whole.hole.y, 0.1);
+  EXPECT_NEAR(tracked.distance, whole.distance, 0.002 * whole.distance);
+  EXPECT_NEAR(tracked.lateral_offset, whole.lateral_offset, 0.0005);
+  // Nothing was preprocessed on the flange's rim, only about the bore.
+  const cv::Mat& pre = detector.preprocessed();
+  EXPECT_EQ(cv::countNonZero(pre(cv::Rect(cvRound(target.x - target.flange_r) - 5, cvRound(target.y) - 5, 10, 10))), 0);
+  EXPECT_GT(cv::countNonZero(pre(cv::Rect(cvRound(target.x) - 5, cvRound(target.y) - 5, 10, 10))), 0);
+  // A rim prediction 15% too large finds no rim within its reach: the window's Hough search
+  // decides, exactly as in a window without a prediction.
+  window.rim.radius = 0.175 * 1.15;
+  const SpoolDetection fallback = detector.detect(frame, PixelFormat::kBgr8, window);
+  spool_vision::FlangeWindow plain = window;
+  plain.rim = spool_vision::RimPrediction();
+  const SpoolDetection hough = detector.detect(frame, PixelFormat::kBgr8, plain);
+  ASSERT_TRUE(fallback.hole_detected);
+  EXPECT_DOUBLE_EQ(fallback.flange.r_vertical, hough.flange.r_vertical);
+  EXPECT_DOUBLE_EQ(fallback.distance, hough.distance);
+  EXPECT_NEAR(fallback.distance, whole.distance, 0.002 * whole.distance);
+}
+
 TEST(TrackingDetector, ATargetHintPicksTheTasksSpoolAmongNeighbours)
 {
   // Two spools 1 m ahead: one 10 cm left of the puller (the image's nearest: the detector's own

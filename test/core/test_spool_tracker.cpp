@@ -792,8 +792,20 @@ TEST(SpoolTracker, AWindowOnlyForAConfirmedTrackFrameAfterFrame)
   const auto window = tracker.flangeWindow(stamp(confirm), kCamera);
   ASSERT_TRUE(window);
   EXPECT_NEAR(window->radius, kCamera.fy * kFlangeRadius / approach(confirm).z, 1.0);
+  // The whole rim for the moving edges: the flange's circle about the predicted bore, in the
+  // plane the tracked axis gives, searched 3 sigma each way but never as far as a rib ring.
+  EXPECT_DOUBLE_EQ(window->rim.radius, kFlangeRadius);
+  EXPECT_NEAR(window->rim.centre.z, approach(confirm).z, 0.005);
+  EXPECT_NEAR(window->rim.centre.x, approach(confirm).x, 0.003);
+  EXPECT_NEAR(window->rim.axis.dot(kAlong), 1.0, 1e-3);
+  EXPECT_GT(window->rim_reach, SpoolTracker::kRimReachPad);
+  EXPECT_LE(window->rim_reach, SpoolTracker::kMaxRimReach * window->radius);
+  EXPECT_GE(window->bore_reach, 1.0);
+  EXPECT_LT(window->bore_reach, window->rim_reach);
   EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 2), kCamera));  // a frame dropped before it
   ASSERT_EQ(tracker.update(nothing(), stamp(confirm), kCamera).state, TrackState::kCoasting);
-  EXPECT_TRUE(tracker.flangeWindow(stamp(confirm + 1), kCamera));   // coasting
+  const auto coasting = tracker.flangeWindow(stamp(confirm + 1), kCamera);
+  ASSERT_TRUE(coasting);
+  EXPECT_EQ(coasting->rim.radius, 0.0);  // after a miss the window's Hough search judges, not moving edges
   EXPECT_FALSE(tracker.flangeWindow(stamp(confirm + 3), kCamera));  // and a frame dropped
 }

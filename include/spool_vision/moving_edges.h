@@ -1,0 +1,84 @@
+// Stage 2 while a track holds the spool: the flange rim measured where the track predicts it, by
+// moving edges (a 1-D search along the normal of each sample of the predicted rim, as ViSP's
+// vpMeEllipse tracks an ellipse: Marchand, Chaumette, "Feature tracking for visual servoing
+// purposes", Robotics and Autonomous Systems 52(1), 2005). Only the few thousand pixels on those
+// normals are read: no whole-frame preprocessing, edge map or vote.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+/// How the edges are searched along each normal.
+struct RimSearch
+{
+  double reach = 0.0;  ///< px (undistorted) either way along the normal
+  /// kDark: the disc is darker than what lies outside it (the light rises outward), kBright the
+  /// reverse, kAny either
+  Polarity polarity = Polarity::kDark;
+  /// the least gradient, as a fraction of full scale (edge_threshold: a 3x3 Sobel's 4 * 255)
+  double threshold = 0.05;
+  double sigma = 0.0;  ///< px, the Gaussian the profile is smoothed with along the normal (the detector's filter)
+};
+
+/// Finds a predicted rim in a frame by moving edges and fits the detector's rim model to it.
+class MovingEdges
+{
+public:
+  /// The camera of the frames (its K projects the prediction; its distortion places each normal
+  /// in the raw frame). Throws std::invalid_argument on invalid intrinsics.
+  void setCamera(const CameraIntrinsics& camera);
+
+  /// Measures `prediction`'s rim in `image` (a frame of `format` from setCamera()'s camera):
+  /// a sample every 5 px of the predicted rim (24 to kMaxSamples, the prediction's circle
+  /// projected through the pinhole), each moved to the strongest edge of `search.polarity` within
+  /// `search.reach` along its normal (the profile read bilinearly on two lines a px apart, smoothed
+  /// by `search.sigma`; sub-pixel: a parabola through the gradient's peak). The rim is then the
+  /// predicted one moved and scaled to those edges (least squares along the normals: its shape,
+  /// the tracked axis's, is kept), the edges off it by more than 3 robust sigmas (at least 1 px)
+  /// dropped, three times. `rim` (undistorted px): that rim as the detector's rim model
+  /// (fitRimModel() of the prediction: centre, r, r_vertical, r_horizontal), its score the
+  /// fraction of the samples inside the frame that lie on it, its visible_fraction
+  /// visibleRimFraction()'s. False with fewer than kMinEdges on it, or a prediction not ahead of
+  /// the camera. Throws std::invalid_argument when the image does not fit `format`.
+  bool measure(const cv::Mat& image, PixelFormat format, const RimPrediction& prediction, const RimSearch& search,
+               Circle& rim);
+
+  /// The edges on the last measure()'s fit (undistorted px), for SpoolGeometry's rim pose.
+  const std::vector<cv::Point2f>& rimEdges() const
+  {
+    return on_rim_;
+  }
+  /// The last measure()'s predicted rim (undistorted px), for overlays and tests.
+  const std::vector<cv::Point2d>& predictedRim() const
+  {
+    return points_;
+  }
+
+  static constexpr int kMaxSamples = 96;
+  static constexpr std::size_t kMinEdges = 12;
+
+private:
+  /// points_ and normals_: the prediction's rim through the pinhole, `count` samples.
+  bool project(const RimPrediction& prediction, int count);
+  /// found_ (undistorted px; NaN where no edge qualifies) and how many samples lay inside the frame.
+  template <typename Reader>
+  std::size_t searchNormals(const Reader& reader, cv::Size size, const RimSearch& search);
+  /// on_rim_ and `rim`: the robust fit of found_.
+  bool fit(cv::Size size, std::size_t in_frame, Circle& rim);
+
+  CameraIntrinsics camera_;
+  std::vector<cv::Point2d> points_;   ///< predicted rim, undistorted px
+  std::vector<cv::Point2d> normals_;  ///< unit, outward
+  std::vector<cv::Point2d> found_;
+  std::vector<cv::Point2f> on_rim_;
+  std::vector<float> profile_, smoothed_, kernel_;
+  std::vector<double> residuals_, scratch_;
+};
+
+}  // namespace spool_vision

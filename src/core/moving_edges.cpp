@@ -1,0 +1,358 @@
+#include "spool_vision/moving_edges.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include <Eigen/Dense>
+
+#include "spool_vision/camera_model.h"
+#include "spool_vision/hough_accumulator.h"
+
+namespace spool_vision
+{
+namespace
+{
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kSampleSpacing = 5.0;  // px of rim between samples
+constexpr int kMinSamples = 24;
+// A step that a 3x3 Sobel answers with its full scale (4 * 255) rises by 255 over the two pixels
+// a central difference spans: edge_threshold t is a half-difference of t * 127.5 levels per px.
+constexpr double kHalfDifferenceFullScale = 127.5;
+// A normal distribution's sigma is 1.4826 median absolute deviations.
+constexpr double kMadToSigma = 1.4826;
+
+// The gray level of one pixel, as cv::cvtColor weighs the channels (ITU-R BT.601).
+struct Mono8
+{
+  const cv::Mat& m;
+  float operator()(int x, int y) const
+  {
+    return m.ptr<uchar>(y)[x];
+  }
+};
+struct Mono16
+{
+  const cv::Mat& m;
+  float operator()(int x, int y) const
+  {
+    return m.ptr<ushort>(y)[x] * (1.0f / 257.0f);  // 65535 -> 255, as Preprocessor::toGray
+  }
+};
+template <int kChannels, int kBlue, int kRed>
+struct Colour
+{
+  const cv::Mat& m;
+  float operator()(int x, int y) const
+  {
+    const uchar* p = m.ptr<uchar>(y) + x * kChannels;
+    return 0.114f * p[kBlue] + 0.587f * p[1] + 0.299f * p[kRed];
+  }
+};
+
+// Bilinear interpolation of a reader's levels at (x, y), inside [0, cols - 1) x [0, rows - 1).
+template <typename Level>
+struct Bilinear
+{
+  Level level;
+  float operator()(double x, double y) const
+  {
+    const int x0 = static_cast<int>(x);
+    const int y0 = static_cast<int>(y);
+    const float fx = static_cast<float>(x - x0);
+    const float fy = static_cast<float>(y - y0);
+    const float top = level(x0, y0) + fx * (level(x0 + 1, y0) - level(x0, y0));
+    const float bottom = level(x0, y0 + 1) + fx * (level(x0 + 1, y0 + 1) - level(x0, y0 + 1));
+    return top + fy * (bottom - top);
+  }
+};
+
+double median(std::vector<double>& v)
+{
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+}  // namespace
+
+void MovingEdges::setCamera(const CameraIntrinsics& camera)
+{
+  if (!camera.valid())
+    throw std::invalid_argument("MovingEdges: invalid camera intrinsics");
+  camera_ = camera;
+}
+
+bool MovingEdges::project(const RimPrediction& prediction, int count)
+{
+  cv::Vec3d a = prediction.axis;
+  if (!(std::isfinite(a[0]) && std::isfinite(a[1]) && std::isfinite(a[2])) || cv::norm(a) < 1e-9)
+    a = cv::Vec3d(0.0, 0.0, 1.0);
+  a = cv::normalize(a);
+  // Two unit vectors spanning the rim's plane.
+  const cv::Vec3d up = std::abs(a[1]) < 0.9 ? cv::Vec3d(0.0, 1.0, 0.0) : cv::Vec3d(1.0, 0.0, 0.0);
+  const cv::Vec3d u = cv::normalize(a.cross(up));
+  const cv::Vec3d v = a.cross(u);
+  const cv::Vec3d c(prediction.centre.x, prediction.centre.y, prediction.centre.z);
+  const double xc = camera_.fx * c[0] / c[2] + camera_.cx;
+  const double yc = camera_.fy * c[1] / c[2] + camera_.cy;
+  points_.resize(static_cast<std::size_t>(count));
+  normals_.resize(static_cast<std::size_t>(count));
+  for (int k = 0; k < count; ++k)
+  {
+    const double theta = 2.0 * kPi * k / count;
+    const cv::Vec3d along = std::cos(theta) * u + std::sin(theta) * v;
+    const cv::Vec3d p = c + prediction.radius * along;
+    if (!(p[2] > 0.01))
+      return false;
+    const double x = camera_.fx * p[0] / p[2] + camera_.cx;
+    const double y = camera_.fy * p[1] / p[2] + camera_.cy;
+    // The image tangent: the pinhole's Jacobian times the rim's 3-D tangent.
+    const cv::Vec3d t = prediction.radius * (-std::sin(theta) * u + std::cos(theta) * v);
+    const double du = camera_.fx * (t[0] / p[2] - p[0] * t[2] / (p[2] * p[2]));
+    const double dv = camera_.fy * (t[1] / p[2] - p[1] * t[2] / (p[2] * p[2]));
+    const double norm = std::hypot(du, dv);
+    if (!(norm > 0.0))
+      return false;
+    cv::Point2d n(dv / norm, -du / norm);
+    if (n.x * (x - xc) + n.y * (y - yc) < 0.0)
+      n = -n;
+    points_[static_cast<std::size_t>(k)] = {x, y};
+    normals_[static_cast<std::size_t>(k)] = n;
+  }
+  return true;
+}
+
+template <typename Reader>
+std::size_t MovingEdges::searchNormals(const Reader& reader, cv::Size size, const RimSearch& search)
+{
+  const int reach = std::max(1, static_cast<int>(std::ceil(search.reach)));
+  const int half = search.sigma >= 0.3 ? static_cast<int>(std::ceil(3.0 * search.sigma)) : 0;
+  kernel_.resize(static_cast<std::size_t>(2 * half + 1));
+  float total = 0.0f;
+  for (int k = -half; k <= half; ++k)
+  {
+    const float w = half > 0 ? std::exp(static_cast<float>(-0.5 * k * k / (search.sigma * search.sigma))) : 1.0f;
+    kernel_[static_cast<std::size_t>(k + half)] = w;
+    total += w;
+  }
+  for (float& w : kernel_)
+    w /= total;
+  // The profile spans the reach, one more px each way for the central difference, and the kernel.
+  const int outer = reach + 1 + half;
+  profile_.resize(static_cast<std::size_t>(2 * outer + 1));
+  smoothed_.resize(static_cast<std::size_t>(2 * reach + 3));
+  const float sign = search.polarity == Polarity::kBright ? -1.0f : 1.0f;
+  const float least = static_cast<float>(search.threshold * kHalfDifferenceFullScale);
+  const double max_x = size.width - 1.001;
+  const double max_y = size.height - 1.001;
+  auto inside = [&](const cv::Point2d& q) { return q.x >= 0.0 && q.y >= 0.0 && q.x <= max_x && q.y <= max_y; };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  found_.assign(points_.size(), {nan, nan});
+  std::size_t in_frame = 0;
+  for (std::size_t i = 0; i < points_.size(); ++i)
+  {
+    // The normal in the raw frame: the lens bends it little over a few px, so its two ends decide.
+    const cv::Point2d q0 = distortPixel(camera_, points_[i]);
+    const cv::Point2d step = distortPixel(camera_, points_[i] + normals_[i]) - q0;
+    const double length = std::hypot(step.x, step.y);
+    if (!(length > 0.0))
+      continue;
+    const cv::Point2d across(-step.y / length, step.x / length);
+    const cv::Point2d first = q0 - outer * step;
+    const cv::Point2d last = q0 + outer * step;
+    if (!inside(first - across) || !inside(first + across) || !inside(last - across) || !inside(last + across))
+      continue;
+    ++in_frame;
+    // Two parallel lines a px apart, averaged: the filter's smoothing along the rim.
+    const cv::Point2d side = 0.5 * across;
+    for (int s = -outer; s <= outer; ++s)
+    {
+      const cv::Point2d q = q0 + s * step;
+      profile_[static_cast<std::size_t>(s + outer)] =
+          0.5f * (reader(q.x - side.x, q.y - side.y) + reader(q.x + side.x, q.y + side.y));
+    }
+    for (int s = -reach - 1; s <= reach + 1; ++s)
+    {
+      float sum = 0.0f;
+      for (int k = -half; k <= half; ++k)
+        sum += kernel_[static_cast<std::size_t>(k + half)] * profile_[static_cast<std::size_t>(s + k + outer)];
+      smoothed_[static_cast<std::size_t>(s + reach + 1)] = sum;
+    }
+    // The outward gradient at s (half the central difference), the way the polarity wants it.
+    auto gradient = [&](int s)
+    {
+      const float g =
+          0.5f * (smoothed_[static_cast<std::size_t>(s + reach + 2)] - smoothed_[static_cast<std::size_t>(s + reach)]);
+      return search.polarity == Polarity::kAny ? std::abs(g) : sign * g;
+    };
+    int best = 0;
+    float best_g = least;
+    bool any = false;
+    for (int s = -reach; s <= reach; ++s)
+    {
+      const float g = gradient(s);
+      if (g >= best_g)
+      {
+        best_g = g;
+        best = s;
+        any = true;
+      }
+    }
+    if (!any)
+      continue;
+    double offset = best;
+    if (best > -reach && best < reach)
+    {
+      // The parabola through the peak and its neighbours puts it between samples.
+      const double gm = gradient(best - 1);
+      const double gp = gradient(best + 1);
+      const double curvature = gm - 2.0 * best_g + gp;
+      if (curvature < 0.0)
+        offset += std::clamp(0.5 * (gm - gp) / curvature, -0.5, 0.5);
+    }
+    found_[i] = points_[i] + offset * normals_[i];
+  }
+  return in_frame;
+}
+
+bool MovingEdges::fit(cv::Size size, std::size_t in_frame, Circle& rim)
+{
+  // The predicted rim as the detector's rim model (fitRimModel() on its own samples).
+  Circle predicted;
+  double cx = 0.0;
+  double cy = 0.0;
+  for (const cv::Point2d& p : points_)
+  {
+    cx += p.x;
+    cy += p.y;
+  }
+  predicted.x = cx / static_cast<double>(points_.size());
+  predicted.y = cy / static_cast<double>(points_.size());
+  double mean_distance = 0.0;
+  for (const cv::Point2d& p : points_)
+    mean_distance += std::hypot(p.x - predicted.x, p.y - predicted.y);
+  predicted.r = predicted.r_horizontal = predicted.r_vertical = mean_distance / static_cast<double>(points_.size());
+  RimMoments own;
+  for (const cv::Point2d& p : points_)
+    own.add((p.x - predicted.x) / predicted.r, (p.y - predicted.y) / predicted.r);
+  if (!fitRimModel(own, predicted.r, predicted))
+    return false;
+
+  // The rim found is the predicted one moved by (dx, dy) and scaled by 1 + e about its centre: its
+  // shape is the tracked axis's. Each edge measures that along its normal only (where along the
+  // rim it lies is arbitrary): offset_i = n_i . (dx, dy) + e n_i . (p_i - centre), least squares.
+  // A rim cut by the frame shows an arc, on which a free ellipse trades its height for its width
+  // and its centre; the tracked shape does not, and SpoolGeometry fits the pose to the edges.
+  residuals_.clear();
+  for (std::size_t i = 0; i < found_.size(); ++i)
+    if (std::isfinite(found_[i].x))
+      residuals_.push_back((found_[i] - points_[i]).dot(normals_[i]));
+  if (residuals_.size() < kMinEdges)
+    return false;
+  // First about the median offset (a rim shifted along its normals), then about the fit.
+  scratch_ = residuals_;
+  const double shift = median(scratch_);
+  for (double& d : scratch_)
+    d = std::abs(d - shift);
+  double band = std::max(2.0, 3.0 * kMadToSigma * median(scratch_));
+  Eigen::Vector3d motion(0.0, 0.0, shift / predicted.r);
+  auto modelled = [&](std::size_t i, const Eigen::Vector3d& m)
+  {
+    const cv::Point2d radial = points_[i] - cv::Point2d(predicted.x, predicted.y);
+    return normals_[i].x * m(0) + normals_[i].y * m(1) + normals_[i].dot(radial) * m(2);
+  };
+  auto offset = [&](std::size_t i) { return (found_[i] - points_[i]).dot(normals_[i]); };
+  constexpr int kFits = 3;
+  for (int pass = 0; pass < kFits; ++pass)
+  {
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
+    std::size_t taken = 0;
+    for (std::size_t i = 0; i < found_.size(); ++i)
+    {
+      if (!std::isfinite(found_[i].x))
+        continue;
+      const double d = offset(i);
+      const double off = pass == 0 ? d - shift : d - modelled(i, motion);
+      if (std::abs(off) > band)
+        continue;
+      const Eigen::Vector3d row(normals_[i].x, normals_[i].y,
+                                normals_[i].dot(points_[i] - cv::Point2d(predicted.x, predicted.y)));
+      normal += row * row.transpose();
+      rhs += row * d;
+      ++taken;
+    }
+    if (taken < kMinEdges)
+      return false;
+    const Eigen::LDLT<Eigen::Matrix3d> solver(normal);
+    if (solver.info() != Eigen::Success)
+      return false;
+    motion = solver.solve(rhs);
+    if (!motion.allFinite() || !(1.0 + motion(2) > 0.0))
+      return false;
+    scratch_.clear();
+    for (std::size_t i = 0; i < found_.size(); ++i)
+      if (std::isfinite(found_[i].x))
+        scratch_.push_back(std::abs(offset(i) - modelled(i, motion)));
+    band = std::max(1.0, 3.0 * kMadToSigma * median(scratch_));
+  }
+  on_rim_.clear();
+  for (std::size_t i = 0; i < found_.size(); ++i)
+    if (std::isfinite(found_[i].x) && std::abs(offset(i) - modelled(i, motion)) <= band)
+      on_rim_.emplace_back(static_cast<float>(found_[i].x), static_cast<float>(found_[i].y));
+  if (on_rim_.size() < kMinEdges)
+    return false;
+  const double scale = 1.0 + motion(2);
+  Circle model = predicted;
+  model.x += motion(0);
+  model.y += motion(1);
+  model.r *= scale;
+  model.r_horizontal *= scale;
+  model.r_vertical *= scale;
+  model.visible_fraction = visibleRimFraction(model.x, model.y, model.r, size);
+  model.score =
+      std::min(1.0, static_cast<double>(on_rim_.size()) / static_cast<double>(std::max<std::size_t>(in_frame, 1)));
+  rim = model;
+  return true;
+}
+
+bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPrediction& prediction,
+                          const RimSearch& search, Circle& rim)
+{
+  if (image.empty() || image.type() != matTypeOf(format))
+    throw std::invalid_argument("MovingEdges: the image's type does not fit its pixel format");
+  on_rim_.clear();
+  found_.clear();
+  if (!(prediction.centre.z > 0.01) || !(prediction.radius > 0.0))
+    return false;
+  const double circumference = 2.0 * kPi * camera_.fy * prediction.radius / prediction.centre.z;
+  const int count = std::clamp(static_cast<int>(circumference / kSampleSpacing), kMinSamples, kMaxSamples);
+  if (!project(prediction, count))
+    return false;
+  std::size_t in_frame = 0;
+  switch (format)
+  {
+    case PixelFormat::kMono8:
+      in_frame = searchNormals(Bilinear<Mono8>{{image}}, image.size(), search);
+      break;
+    case PixelFormat::kMono16:
+      in_frame = searchNormals(Bilinear<Mono16>{{image}}, image.size(), search);
+      break;
+    case PixelFormat::kBgr8:
+      in_frame = searchNormals(Bilinear<Colour<3, 0, 2>>{{image}}, image.size(), search);
+      break;
+    case PixelFormat::kRgb8:
+      in_frame = searchNormals(Bilinear<Colour<3, 2, 0>>{{image}}, image.size(), search);
+      break;
+    case PixelFormat::kBgra8:
+      in_frame = searchNormals(Bilinear<Colour<4, 0, 2>>{{image}}, image.size(), search);
+      break;
+    case PixelFormat::kRgba8:
+      in_frame = searchNormals(Bilinear<Colour<4, 2, 0>>{{image}}, image.size(), search);
+      break;
+  }
+  return fit(image.size(), in_frame, rim);
+}
+
+}  // namespace spool_vision
