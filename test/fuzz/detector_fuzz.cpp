@@ -4,7 +4,9 @@
 // (none, pinhole, plumb_bob or rational_polynomial distortion, another size, invalid); the rest
 // fills the pixels. detect() must return or throw std::invalid_argument (its documented error);
 // anything else escaping, a crash or a sanitizer report is a bug. Each frame is processed twice
-// by the same detector: the second call takes the steady-state path with every buffer sized.
+// by the same detector: the second call takes the steady-state path with every buffer sized. A
+// third call measures it as a track would (moving edges along a predicted rim: the first call's
+// spool, or one 1 m ahead), with the same checks.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -12,6 +14,7 @@
 #include <cstring>
 #include <exception>
 #include <iostream>
+#include <optional>
 #include <stdexcept>
 
 #include <opencv2/core.hpp>
@@ -122,6 +125,24 @@ sv::CameraIntrinsics cameraVariant(Header& h, std::uint8_t kind, int width, int 
   return k;
 }
 
+// The window a track holding `d`'s spool would give the next frame (a spool 1 m ahead without one).
+sv::FlangeWindow trackedWindow(const sv::SpoolDetection& d, const sv::CameraIntrinsics& camera,
+                               const sv::DetectorParams& params)
+{
+  const bool held = d.detected && d.position.z > 0.05;
+  const cv::Point3d p = held ? d.position : cv::Point3d(0.0, 0.0, 1.0);
+  const double rim = params.geometry.flange_diameter / 2.0;
+  sv::FlangeWindow w;
+  w.centre = {camera.fx * p.x / p.z + camera.cx, camera.fy * p.y / p.z + camera.cy};
+  w.radius = camera.fy * rim / p.z;
+  w.centre_margin = 6.0;
+  w.radius_margin = 0.1 * w.radius;
+  w.rim = {p, held ? d.axis : cv::Vec3d(0.0, 0.0, 1.0), rim};
+  w.rim_reach = 8.0;
+  w.bore_reach = 3.0;
+  return w;
+}
+
 void check(bool ok, const char* what)
 {
   if (!ok)
@@ -193,11 +214,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   // Documented: an empty, too small or mistyped frame is refused with std::invalid_argument.
   const bool refused = image.empty() || width < sv::SpoolDetector::kMinImageSide ||
                        height < sv::SpoolDetector::kMinImageSide || mistyped;
-  for (int pass = 0; pass < 2; ++pass)
+  std::optional<sv::FlangeWindow> window;
+  for (int pass = 0; pass < 3; ++pass)
   {
     try
     {
-      const sv::SpoolDetection d = detector.detect(image, format);
+      const sv::SpoolDetection d = detector.detect(image, format, window);
+      if (pass == 1)
+        window = trackedWindow(d, detector.camera(), params);
       check(!refused, "detect() took a frame it must refuse");
       check(!d.detected || (d.flange.r > 0.0 && d.confidence > 0.0 && d.confidence <= 1.0),
             "a detection without a flange radius or with confidence outside (0, 1]");
