@@ -78,7 +78,7 @@ private:
   std::vector<cv::Point2d> found_;
   std::vector<cv::Point2f> on_rim_;
   std::vector<float> profile_, smoothed_, kernel_;
-  std::vector<double> residuals_, scratch_;
+  std::vector<double> scratch_;
 };
 
 }  // namespace spool_vision

@@ -244,25 +244,26 @@ bool MovingEdges::fit(cv::Size size, std::size_t in_frame, Circle& rim)
   // rim it lies is arbitrary): offset_i = n_i . (dx, dy) + e n_i . (p_i - centre), least squares.
   // A rim cut by the frame shows an arc, on which a free ellipse trades its height for its width
   // and its centre; the tracked shape does not, and SpoolGeometry fits the pose to the edges.
-  residuals_.clear();
+  // Each edge's offset along its normal, and the row of the motion's least squares.
+  auto offset = [&](std::size_t i) { return (found_[i] - points_[i]).dot(normals_[i]); };
+  auto row = [&](std::size_t i)
+  {
+    return Eigen::Vector3d(normals_[i].x, normals_[i].y,
+                           normals_[i].dot(points_[i] - cv::Point2d(predicted.x, predicted.y)));
+  };
+  // First about the median offset (a rim shifted along its normals), then about the fit.
+  scratch_.clear();
   for (std::size_t i = 0; i < found_.size(); ++i)
     if (std::isfinite(found_[i].x))
-      residuals_.push_back((found_[i] - points_[i]).dot(normals_[i]));
-  if (residuals_.size() < kMinEdges)
+      scratch_.push_back(offset(i));
+  if (scratch_.size() < kMinEdges)
     return false;
-  // First about the median offset (a rim shifted along its normals), then about the fit.
-  scratch_ = residuals_;
   const double shift = median(scratch_);
   for (double& d : scratch_)
     d = std::abs(d - shift);
   double band = std::max(2.0, 3.0 * kMadToSigma * median(scratch_));
-  Eigen::Vector3d motion(0.0, 0.0, shift / predicted.r);
-  auto modelled = [&](std::size_t i, const Eigen::Vector3d& m)
-  {
-    const cv::Point2d radial = points_[i] - cv::Point2d(predicted.x, predicted.y);
-    return normals_[i].x * m(0) + normals_[i].y * m(1) + normals_[i].dot(radial) * m(2);
-  };
-  auto offset = [&](std::size_t i) { return (found_[i] - points_[i]).dot(normals_[i]); };
+  Eigen::Vector3d motion = Eigen::Vector3d::Zero();
+  auto off = [&](std::size_t i, int pass) { return offset(i) - (pass == 0 ? shift : row(i).dot(motion)); };
   constexpr int kFits = 3;
   for (int pass = 0; pass < kFits; ++pass)
   {
@@ -271,16 +272,11 @@ bool MovingEdges::fit(cv::Size size, std::size_t in_frame, Circle& rim)
     std::size_t taken = 0;
     for (std::size_t i = 0; i < found_.size(); ++i)
     {
-      if (!std::isfinite(found_[i].x))
+      if (!std::isfinite(found_[i].x) || std::abs(off(i, pass)) > band)
         continue;
-      const double d = offset(i);
-      const double off = pass == 0 ? d - shift : d - modelled(i, motion);
-      if (std::abs(off) > band)
-        continue;
-      const Eigen::Vector3d row(normals_[i].x, normals_[i].y,
-                                normals_[i].dot(points_[i] - cv::Point2d(predicted.x, predicted.y)));
-      normal += row * row.transpose();
-      rhs += row * d;
+      const Eigen::Vector3d r = row(i);
+      normal += r * r.transpose();
+      rhs += r * offset(i);
       ++taken;
     }
     if (taken < kMinEdges)
@@ -294,12 +290,12 @@ bool MovingEdges::fit(cv::Size size, std::size_t in_frame, Circle& rim)
     scratch_.clear();
     for (std::size_t i = 0; i < found_.size(); ++i)
       if (std::isfinite(found_[i].x))
-        scratch_.push_back(std::abs(offset(i) - modelled(i, motion)));
+        scratch_.push_back(std::abs(off(i, kFits)));
     band = std::max(1.0, 3.0 * kMadToSigma * median(scratch_));
   }
   on_rim_.clear();
   for (std::size_t i = 0; i < found_.size(); ++i)
-    if (std::isfinite(found_[i].x) && std::abs(offset(i) - modelled(i, motion)) <= band)
+    if (std::isfinite(found_[i].x) && std::abs(off(i, kFits)) <= band)
       on_rim_.emplace_back(static_cast<float>(found_[i].x), static_cast<float>(found_[i].y));
   if (on_rim_.size() < kMinEdges)
     return false;
