@@ -105,10 +105,9 @@ public:
   /// searched within kOuterRimMargin of the size the bore gives.
   static constexpr double kInnerRingRatio = 1.12;
   static constexpr double kOuterRimMargin = 0.12;
-  /// The outer rim is taken where its own hole is that bore: radius and centre within this
-  /// fraction of the bore's radius, or kOwnBoreAgreementPx where that is more (a 13 px bore at
+  /// The outer rim is taken where its own hole is that bore: its centre within concentric_tolerance
+  /// and its radius within kOuterRimMargin, or this many px where that is more (a 13 px bore at
   /// 320x240 is measured to about a pixel).
-  static constexpr double kOwnBoreAgreement = 0.05;
   static constexpr double kOwnBoreAgreementPx = 1.0;
   /// Around a tracked rim's hole window the pixels within this many of its largest radius are
   /// preprocessed: the bore's disc contrast reads a ring out to twice its radius.

@@ -147,6 +147,9 @@ struct FlangeWindow
   RimPrediction rim;
   double rim_reach = 0.0;   ///< px each way along the rim's normal the moving edges search
   double bore_reach = 0.0;  ///< px: 3 sigma of where the bore's front centre shows, plus a px
+  /// The window stands for the whole frame (a target hint's area, not a track's prediction): the
+  /// whole frame's checks of the chosen spool apply in it (a rib ring taken for the flange)
+  bool whole_frame = false;
 };
 
 /// What the detector reports for one frame. Undefined numbers are NaN, never stale values.

@@ -198,28 +198,33 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   measureBoreParallax(geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
   Circle bore;
-  const bool inner_ring = !window && result.hole_detected && ownBore(result, hole_search, bore);
+  const bool inner_ring =
+      (!window || window->whole_frame) && result.hole_detected && ownBore(result, hole_search, bore);
   toFramePixels(geometry.camera(), result);
   if (inner_ring)
   {
     // The flange is then the larger concentric rim that bore gives, searched as the tracker's
     // window searches (the rim may be cut by the frame), after this result is complete (the
     // search reuses the frame's buffers).
-    const double outer = result.flange.r_vertical * bore.r_vertical / matcher_.holeRadius(result.flange);
-    const double margin = kOuterRimMargin * outer;
+    const double ring = result.flange.r_vertical;
+    const double outer = ring * bore.r_vertical / matcher_.holeRadius(result.flange);
+    // Never the ring itself again (a bore measured a little small puts it in the margin).
+    const double smallest = std::max((1.0 - kOuterRimMargin) * outer, kInnerRingRatio * ring);
+    const double largest = (1.0 + kOuterRimMargin) * outer;
     FlangeWindow around;
     around.centre = {bore.x, bore.y};
-    around.centre_margin = 0.25 * margin;
-    around.radius = outer;
-    around.radius_margin = margin;
-    const SpoolDetection flange = detect(image, format, around);
-    // Taken only where the two agree: the outer rim's own hole is the bore that was measured (in
-    // frame px, as detect() leaves its centres).
+    around.centre_margin = 0.25 * kOuterRimMargin * outer;
+    around.radius = 0.5 * (smallest + largest);
+    around.radius_margin = 0.5 * (largest - smallest);
+    const SpoolDetection flange = smallest < largest ? detect(image, format, around) : SpoolDetection();
+    // Taken only where the two agree: the outer rim's own hole is the bore that was measured, its
+    // centre within concentric_tolerance (each is measured to about a pixel) and its size within
+    // the margin the rim was searched in (in frame px, as detect() leaves its centres).
     const cv::Point2d seen = distortPixel(geometry.camera(), {bore.x, bore.y});
-    const double agreement = std::max(kOwnBoreAgreement * bore.r, kOwnBoreAgreementPx);
-    if (flange.hole_detected && flange.flange.r_vertical >= kInnerRingRatio * result.flange.r_vertical &&
-        std::abs(flange.hole.r - bore.r) <= agreement &&
-        std::hypot(flange.hole.x - seen.x, flange.hole.y - seen.y) <= agreement)
+    if (flange.hole_detected && flange.flange.r_vertical >= kInnerRingRatio * ring &&
+        std::abs(flange.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx) &&
+        std::hypot(flange.hole.x - seen.x, flange.hole.y - seen.y) <=
+            std::max(matcher_.tolerancePx(), kOwnBoreAgreementPx))
       result = flange;
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

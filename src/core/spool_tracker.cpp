@@ -774,6 +774,8 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
     whole = flangeWindowAt({hint->position.x, hint->position.y, hint->position.z},
                            Eigen::Matrix3d::Identity() * sigma * sigma, detector_.cameraFor(image.size()),
                            detector_.params());
+    if (whole)
+      whole->whole_frame = true;
   }
   // Not the task's spool: a neighbour in a wide window (a young track's), or a rim at another depth.
   auto taskless = [&](const SpoolDetection& d) { return hint && d.detected && offHint(d.position); };
