@@ -105,6 +105,8 @@ public:
   /// searched within kOuterRimMargin of the size the bore gives.
   static constexpr double kInnerRingRatio = 1.12;
   static constexpr double kOuterRimMargin = 0.12;
+  /// Rims searched outwards from an inner ring at most (a face carries a few rib rings)
+  static constexpr int kMaxRibRings = 3;
   /// The outer rim is taken where its own hole is that bore: its centre within concentric_tolerance
   /// and its radius within kOuterRimMargin, or this many px where that is more (a 13 px bore at
   /// 320x240 is measured to about a pixel).
@@ -112,6 +114,10 @@ public:
   /// Around a tracked rim's hole window the pixels within this many of its largest radius are
   /// preprocessed: the bore's disc contrast reads a ring out to twice its radius.
   static constexpr double kDiscReach = 2.2;
+  /// Along a predicted rim an edge needs this fraction of edge_threshold: it is searched for only
+  /// within a few px of where the rim must be, while the whole frame's threshold keeps clutter out
+  /// of the Hough votes and drops a faint rim (a grey face on a grey wall) with it.
+  static constexpr double kAlongRimThreshold = 0.5;
   /// px: a smaller bore (160x120) is not measured again at its known size: half a rim of a few
   /// pixels has too few edges to place it better than the free fit, and there the lit band is
   /// within a pixel of the rim anyway.

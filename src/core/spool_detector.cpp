@@ -203,29 +203,53 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   toFramePixels(geometry.camera(), result);
   if (inner_ring)
   {
-    // The flange is then the larger concentric rim that bore gives, searched as the tracker's
-    // window searches (the rim may be cut by the frame), after this result is complete (the
-    // search reuses the frame's buffers).
-    const double ring = result.flange.r_vertical;
-    const double outer = ring * bore.r_vertical / matcher_.holeRadius(result.flange);
-    // Never the ring itself again (a bore measured a little small puts it in the margin).
-    const double smallest = std::max((1.0 - kOuterRimMargin) * outer, kInnerRingRatio * ring);
-    const double largest = (1.0 + kOuterRimMargin) * outer;
-    FlangeWindow around;
-    around.centre = {bore.x, bore.y};
-    around.centre_margin = 0.25 * kOuterRimMargin * outer;
-    around.radius = 0.5 * (smallest + largest);
-    around.radius_margin = 0.5 * (largest - smallest);
-    const SpoolDetection flange = smallest < largest ? detect(image, format, around) : SpoolDetection();
+    // The flange is then the outermost concentric rim that agrees with the bore's size (a face may
+    // carry several rib rings): rims are searched outwards, each above the one before, as the
+    // tracker's window searches (the rim may be cut by the frame), after this result is complete
+    // (the search reuses the frame's buffers).
+    const double outer = result.flange.r_vertical * bore.r_vertical / matcher_.holeRadius(result.flange);
     // Taken only where the two agree: the outer rim's own hole is the bore that was measured, its
     // centre within concentric_tolerance (each is measured to about a pixel) and its size within
     // the margin the rim was searched in (in frame px, as detect() leaves its centres).
     const cv::Point2d seen = distortPixel(geometry.camera(), {bore.x, bore.y});
-    if (flange.hole_detected && flange.flange.r_vertical >= kInnerRingRatio * ring &&
-        std::abs(flange.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx) &&
-        std::hypot(flange.hole.x - seen.x, flange.hole.y - seen.y) <=
-            std::max(matcher_.tolerancePx(), kOwnBoreAgreementPx))
-      result = flange;
+    const double centre_agreement = std::max(matcher_.tolerancePx(), kOwnBoreAgreementPx);
+    for (int ring = 0; ring < kMaxRibRings; ++ring)
+    {
+      const double inner = result.flange.r_vertical;
+      const double smallest = std::max((1.0 - kOuterRimMargin) * outer, kInnerRingRatio * inner);
+      const double largest = (1.0 + kOuterRimMargin) * outer;
+      if (smallest >= largest)
+        break;
+      auto agrees = [&](const SpoolDetection& rim)
+      {
+        return rim.hole_detected && rim.flange.r_vertical >= smallest &&
+               std::abs(rim.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx) &&
+               std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement;
+      };
+      FlangeWindow around;
+      around.centre = {bore.x, bore.y};
+      around.centre_margin = 0.25 * kOuterRimMargin * outer;
+      around.radius = 0.5 * (smallest + largest);
+      around.radius_margin = 0.5 * (largest - smallest);
+      SpoolDetection rim = detect(image, format, around);
+      if (!agrees(rim) && std::isfinite(result.position.z))
+      {
+        // A rim too faint for the Hough search (a grey face on a grey wall, cut by the frame, the
+        // ribs' edges taking the edge budget) is still the strongest edge along its own circle:
+        // it is measured by moving edges where the bore puts it (this rim's centre scaled to the
+        // bore's depth), no farther in than halfway to this rim. Facing the camera: an inner
+        // ring's own axis is no guide (a rib's relief tilts its fit by up to 17 deg on a level
+        // spool), and near the axis, where a face overfills the frame, the two differ by little.
+        around.rim = RimPrediction{result.position * (inner / outer), cv::Vec3d(0.0, 0.0, 1.0),
+                                   0.5 * params_.geometry.flange_diameter};
+        around.rim_reach = std::min(kOuterRimMargin, 0.5 * (1.0 - inner / outer)) * outer;
+        around.bore_reach = centre_agreement;
+        rim = detect(image, format, around);
+      }
+      if (!agrees(rim))
+        break;
+      result = rim;
+    }
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return result;
@@ -255,7 +279,7 @@ bool SpoolDetector::measureAlongRim(const cv::Mat& image, PixelFormat format, co
   // is darker (a grey face against a dark shelf board shows it bright inside, where the dark
   // search would take the back flange's silhouette around it).
   search.polarity = Polarity::kAny;
-  search.threshold = params_.hough.edge_threshold;
+  search.threshold = kAlongRimThreshold * params_.hough.edge_threshold;
   search.sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * geometry_->camera().fy : 0.0;
   if (!moving_edges_.measure(image, format, window.rim, search, flange))
     return false;
