@@ -2,12 +2,14 @@
 // Contract: ../shared/DESIGN.md §6. Exit 0 = all images processed, 1 = some image failed,
 // 2 = bad option or config.
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "cli_args.h"
@@ -39,7 +41,14 @@ const char* const kUsage =
     "             the puller's misses at the bore's ends and their sigma\n"
     "  --stdin    read one image path per line from standard input and answer each with one JSON\n"
     "             line at once, the tracker's state kept between lines (implies --track); a path\n"
-    "             that cannot be read is a dropped frame\n"
+    "             that cannot be read is a dropped frame. A line may instead be a JSON object:\n"
+    "             {\"image\": PATH, \"stamp\": S, \"motion\": {\"rotation\": [9 row-major],\n"
+    "             \"translation\": [x, y, z]}, \"target_hint\": {\"x\": X, \"y\": Y, \"z\": Z,\n"
+    "             \"radius\": M}}, all but image optional: the frame's time (s, increasing), the\n"
+    "             camera's motion since the previous frame from odometry (a point fixed in the\n"
+    "             scene at p in the previous camera optical frame is at R p + t in this one, m) and\n"
+    "             where the task expects the target's bore front centre (this camera's optical\n"
+    "             frame, m), as the node takes them from TF and its target_hint topic\n"
     "  --rate     frames per second the images were taken at, for the tracker (default 30)\n"
     "Prints one JSON object per image on stdout. Exit: 0 ok, 1 an image failed, 2 bad option/config.\n";
 
@@ -107,6 +116,97 @@ Options parseOptions(int argc, char** argv)
   if (!options.from_stdin && options.paths.empty())
     throw spool_vision::cli::UsageError("no PATH given");
   return options;
+}
+
+// One frame asked for on --stdin: a path, or a JSON object with the path and what the node takes
+// from TF and its target_hint topic.
+struct FrameRequest
+{
+  std::string path;
+  std::optional<double> stamp;  ///< s; none: the frame's slot, index / --rate
+  std::optional<spool_vision::CameraMotion> motion;
+  std::optional<spool_vision::TargetHint> hint;
+  std::string error;  ///< why the line is not a request (the frame is then a dropout)
+};
+
+// `count` finite numbers from the array `key` of `object`, or std::invalid_argument naming it.
+std::vector<double> finiteNumbers(const nlohmann::json& object, const char* key, std::size_t count)
+{
+  const nlohmann::json& array = object.at(key);
+  std::vector<double> values;
+  if (array.is_array() && array.size() == count)
+    for (const auto& v : array)
+      if (v.is_number() && std::isfinite(v.get<double>()))
+        values.push_back(v.get<double>());
+  if (values.size() != count)
+    throw std::invalid_argument(std::string("\"") + key + "\" must be an array of " + std::to_string(count) +
+                                " finite numbers");
+  return values;
+}
+
+double finiteNumber(const nlohmann::json& object, const char* key)
+{
+  const nlohmann::json& v = object.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>()))
+    throw std::invalid_argument(std::string("\"") + key + "\" must be a finite number");
+  return v.get<double>();
+}
+
+// A line of --stdin. Throws std::invalid_argument on a JSON object that is not a request.
+FrameRequest parseJsonRequest(const std::string& line)
+{
+  const nlohmann::json object = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
+  if (!object.is_object())
+    throw std::invalid_argument("not a JSON object");
+  FrameRequest request;
+  if (!object.contains("image") || !object["image"].is_string() || object["image"].get<std::string>().empty())
+    throw std::invalid_argument("\"image\" must be the image's path");
+  request.path = object["image"].get<std::string>();
+  if (object.contains("stamp"))
+    request.stamp = finiteNumber(object, "stamp");
+  if (object.contains("motion"))
+  {
+    const nlohmann::json& motion = object["motion"];
+    if (!motion.is_object())
+      throw std::invalid_argument("\"motion\" must be an object with rotation and translation");
+    spool_vision::CameraMotion m;
+    const std::vector<double> r = finiteNumbers(motion, "rotation", 9);
+    const std::vector<double> t = finiteNumbers(motion, "translation", 3);
+    m.rotation = cv::Matx33d(r.data());
+    m.translation = {t[0], t[1], t[2]};
+    // A rotation matrix, to odometry's rounding: anything else would shear the tracked pose.
+    if (cv::norm(m.rotation * m.rotation.t() - cv::Matx33d::eye()) > 1e-3 || cv::determinant(m.rotation) <= 0.0)
+      throw std::invalid_argument("\"rotation\" must be a rotation matrix (orthonormal, determinant 1), row-major");
+    request.motion = m;
+  }
+  if (object.contains("target_hint"))
+  {
+    const nlohmann::json& hint = object["target_hint"];
+    if (!hint.is_object())
+      throw std::invalid_argument("\"target_hint\" must be an object with x, y, z and radius");
+    spool_vision::TargetHint h;
+    h.position = {finiteNumber(hint, "x"), finiteNumber(hint, "y"), finiteNumber(hint, "z")};
+    h.radius = finiteNumber(hint, "radius");
+    if (!(h.radius > 0.0))
+      throw std::invalid_argument("\"radius\" of \"target_hint\" must be > 0 m");
+    request.hint = h;
+  }
+  return request;
+}
+
+// A line of --stdin: a path, or a JSON request (with `error` set when it is not one).
+FrameRequest parseRequest(const std::string& line)
+{
+  if (line.front() != '{')
+    return FrameRequest{line, std::nullopt, std::nullopt, std::nullopt, ""};
+  try
+  {
+    return parseJsonRequest(line);
+  }
+  catch (const std::exception& e)
+  {
+    return FrameRequest{line, std::nullopt, std::nullopt, std::nullopt, std::string("bad request: ") + e.what()};
+  }
 }
 
 // The detector of --config, --mode and --camera-info (`params`, `camera`: what they set); a
@@ -218,18 +318,27 @@ public:
   }
 
   /// One image's line; `failed` is set when the image could not be processed. Every image is a
-  /// frame slot (i / --rate), read or not: a frame that cannot be read is a dropout for the tracker.
-  JsonObject process(const std::string& path, bool& failed)
+  /// frame slot (i / --rate, or the request's stamp), read or not: a frame that cannot be read is
+  /// a dropout for the tracker.
+  JsonObject process(const FrameRequest& request, bool& failed)
   {
+    const std::string& path = request.path;
     JsonObject out;
     out.add("image", path);
-    const double stamp = frame_index_++ / options_.rate;
+    const double stamp = request.stamp.value_or(frame_index_ / options_.rate);
+    ++frame_index_;
     try
     {
+      if (!request.error.empty())
+        throw std::invalid_argument(request.error);
+      if (last_stamp_ && !(stamp > *last_stamp_))
+        throw std::invalid_argument("\"stamp\" " + std::to_string(stamp) + " s does not follow the frame before (" +
+                                    std::to_string(*last_stamp_) + " s): stamps must increase");
+      last_stamp_ = stamp;
       const spool_vision::ImageFile file = spool_vision::readImageFile(path);
       spool_vision::TrackedFrame frame;
       if (options_.track)
-        frame = detector_->process(file.image, file.format, stamp);
+        frame = detector_->process(file.image, file.format, stamp, request.motion, request.hint);
       else
         frame.published = detector_->detector().detect(file.image, file.format);
       sayFallbackOnce();
@@ -274,6 +383,7 @@ private:
   std::optional<spool_vision::TrackingDetector> detector_;
   bool fallback_said_ = false;
   int frame_index_ = 0;
+  std::optional<double> last_stamp_;
 };
 
 int run(int argc, char** argv)
@@ -281,21 +391,21 @@ int run(int argc, char** argv)
   const Options options = parseOptions(argc, argv);
   ImageRunner runner(options);
   bool any_failed = false;
-  auto answer = [&](const std::string& path)
+  auto answer = [&](const FrameRequest& request)
   {
     // Flushed: a program driving --stdin waits for each line.
-    std::cout << runner.process(path, any_failed).str() << std::endl;
+    std::cout << runner.process(request, any_failed).str() << std::endl;
   };
   if (options.from_stdin)
   {
-    for (std::string path; std::getline(std::cin, path);)
-      if (!path.empty())
-        answer(path);
+    for (std::string line; std::getline(std::cin, line);)
+      if (!line.empty())
+        answer(parseRequest(line));
   }
   else
   {
     for (const auto& path : expand(options.paths))
-      answer(path);
+      answer(FrameRequest{path, std::nullopt, std::nullopt, std::nullopt, ""});
   }
   return any_failed ? 1 : 0;
 }

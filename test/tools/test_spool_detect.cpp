@@ -304,3 +304,89 @@ TEST_F(SpoolDetectCli, StdinAnswersEachLineAtOnceAndTheTrackerGoesOnPastABadPath
   // --stdin takes no PATH.
   EXPECT_EQ(spoolDetect("--stdin " + frames[0]).exit_code, 2);
 }
+
+// A request line per frame on --stdin, written to `name` in the test's folder; the answers.
+CliRun stdinRequests(const fs::path& dir, const std::string& name, const std::vector<std::string>& requests)
+{
+  const fs::path file = dir / name;
+  std::ofstream out(file);
+  for (const auto& r : requests)
+    out << r << "\n";
+  out.close();
+  return spoolDetect("--stdin < " + file.string());
+}
+
+TEST_F(SpoolDetectCli, StdinRequestsGiveTheCamerasMotionAndTheTracksFollowIt)
+{
+  // The camera stands still, then slides 6 cm left within one frame (at 0.9 m, 50 px of image):
+  // the gate refuses the jump without the motion, and fuses it with the motion the node's odometry
+  // would give.
+  const auto vga = CameraIntrinsics::thesisDefault(640, 480);
+  std::vector<std::string> with_motion;
+  std::vector<std::string> plain;
+  for (int i = 0; i < 6; ++i)
+  {
+    const std::string path = (dir_ / ("slide_" + std::to_string(i) + ".png")).string();
+    const bool slid = i >= 4;
+    cv::imwrite(path, drawScene({640, 480}, {spoolAt(vga, 0.9, slid ? 0.0 : -0.06, 0.06)}));
+    plain.push_back(path);
+    const std::string t = i == 4 ? "0.06" : "0";
+    with_motion.push_back("{\"image\": \"" + path + "\", \"motion\": {\"rotation\": [1, 0, 0, 0, 1, 0, 0, 0, 1], " +
+                          "\"translation\": [" + t + ", 0, 0]}}");
+  }
+  const CliRun followed = stdinRequests(dir_, "with_motion.txt", with_motion);
+  ASSERT_EQ(followed.exit_code, 0) << followed.errors;
+  ASSERT_EQ(followed.lines.size(), 6u);
+  const std::string& last = followed.lines[5];
+  EXPECT_EQ(field(last, "track_age"), "6") << last;
+  EXPECT_EQ(field(last, "track_state"), "\"tracking\"") << last;
+  EXPECT_EQ(field(last, "rejected"), "0") << last;
+  EXPECT_NEAR(number(last, "x"), 0.0, 0.005) << last;
+  const CliRun alone = stdinRequests(dir_, "plain.txt", plain);
+  ASSERT_EQ(alone.lines.size(), 6u);
+  EXPECT_NE(field(alone.lines[4], "rejected"), "0") << alone.lines[4];
+}
+
+TEST_F(SpoolDetectCli, StdinRequestsGiveATargetHintAndOnlyThatSpoolIsFollowed)
+{
+  // Two spools 40 cm apart at 1.1 m: each is followed where the hint puts it.
+  const auto vga = CameraIntrinsics::thesisDefault(640, 480);
+  const std::string path = (dir_ / "two.png").string();
+  cv::imwrite(path, drawScene({640, 480}, {spoolAt(vga, 1.1, -0.2, 0.06), spoolAt(vga, 1.1, 0.2, 0.06)}));
+  for (const double x : {-0.2, 0.2})
+  {
+    std::vector<std::string> requests;
+    for (int i = 0; i < 4; ++i)
+      requests.push_back("{\"image\": \"" + path + "\", \"target_hint\": {\"x\": " + std::to_string(x + 0.03) +
+                         ", \"y\": 0.06, \"z\": 1.1, \"radius\": 0.15}}");
+    const CliRun run = stdinRequests(dir_, "hint.txt", requests);
+    ASSERT_EQ(run.exit_code, 0) << run.errors;
+    ASSERT_EQ(run.lines.size(), 4u);
+    SCOPED_TRACE(run.lines[3]);
+    EXPECT_EQ(field(run.lines[3], "track_state"), "\"tracking\"");
+    EXPECT_NEAR(number(run.lines[3], "x"), x, 0.01);
+  }
+}
+
+TEST_F(SpoolDetectCli, StdinRequestsThatAreNotOneSayWhyAndTheToolGoesOn)
+{
+  const std::string spool = (dir_ / "set/a_spool.png").string();
+  const CliRun run = stdinRequests(
+      dir_, "bad.txt",
+      {"{\"image\": 3}", "{not json", "{\"image\": \"" + spool + "\", \"motion\": {\"rotation\": [1, 0, 0]}}",
+       "{\"image\": \"" + spool +
+           "\", \"motion\": {\"rotation\": [2, 0, 0, 0, 1, 0, 0, 0, 1], \"translation\": [0, 0, 0]}}",
+       "{\"image\": \"" + spool + "\", \"target_hint\": {\"x\": 0, \"y\": 0, \"z\": 1, \"radius\": -1}}",
+       "{\"image\": \"" + spool + "\", \"stamp\": 5}", "{\"image\": \"" + spool + "\", \"stamp\": 4}", spool});
+  EXPECT_EQ(run.exit_code, 1);
+  ASSERT_EQ(run.lines.size(), 8u);
+  EXPECT_TRUE(has(run.lines[0], "\\\"image\\\" must be the image's path")) << run.lines[0];
+  EXPECT_TRUE(has(run.lines[1], "not a JSON object")) << run.lines[1];
+  EXPECT_TRUE(has(run.lines[2], "\\\"rotation\\\" must be an array of 9 finite numbers")) << run.lines[2];
+  EXPECT_TRUE(has(run.lines[3], "must be a rotation matrix")) << run.lines[3];
+  EXPECT_TRUE(has(run.lines[4], "\\\"radius\\\" of \\\"target_hint\\\" must be > 0 m")) << run.lines[4];
+  EXPECT_FALSE(has(run.lines[5], "\"error\"")) << run.lines[5];
+  EXPECT_TRUE(has(run.lines[6], "stamps must increase")) << run.lines[6];
+  // A plain path after them: its stamp is its slot (7 / 30 s), after the 5 s given: refused too.
+  EXPECT_TRUE(has(run.lines[7], "stamps must increase")) << run.lines[7];
+}
