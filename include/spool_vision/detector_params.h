@@ -179,8 +179,9 @@ struct TrackerParams
   /// rad, 1 sigma of how level the spools lie relative to the camera (a shelf board's tilt, the
   /// camera mount's pitch calibration): > 0 takes the axis's pitch as level_pitch with this
   /// uncertainty instead of measuring it from the rim, whose pitch is biased by 0.1-0.5 deg
-  /// (docs/closed_loop.md); 0 = measure it from the rim
-  double level_pitch_sigma = 0.0;
+  /// (docs/closed_loop.md); 0 = measure it from the rim (a shelf that is not level). The default
+  /// (0.1 deg) is the job's: spools lying on a level board, the camera mounted level on the lift
+  double level_pitch_sigma = 0.00175;
   /// the slope y/z a level spool's axis shows in the camera optical frame (the camera tilted
   /// down by t: tan t); used when level_pitch_sigma > 0
   double level_pitch = 0.0;

@@ -98,7 +98,8 @@ std::vector<ParamSpec> buildSpecs()
              "area opening: drop binary components smaller than this (0 = off)"),
       // Hough (thesis §3.3.4, Rule 1)
       number("edge_threshold", FIELD(hough.edge_threshold), 0.0, 1.0, "fraction of full scale",
-             "minimum Sobel gradient magnitude of an edge pixel"),
+             "minimum Sobel gradient magnitude of an edge pixel (along a predicted rim, where moving edges "
+             "search a few px only: half of it)"),
       number("hole_edge_threshold", FIELD(hough.hole_edge_threshold), 0.0, 1.0, "fraction of full scale",
              "the same for the hole search, which only looks where a concentric hole can be"),
       number("sensitivity", FIELD(hough.sensitivity), 0.0, 0.99, "",
@@ -204,7 +205,8 @@ std::vector<ParamSpec> buildSpecs()
              "between frames), where the node has odometry (~odom_frame) or spool_sim drives"),
       number("track_level_pitch_sigma", FIELD(tracker.level_pitch_sigma), 0.0, 0.2, "rad",
              "> 0: the spool axis's pitch is taken as level (track_level_pitch) with this 1 sigma instead of "
-             "the rim's measurement (spools lying on a level board, a level camera); 0 = measured from the rim"),
+             "the rim's measurement, biased 0.1-0.5 deg (spools lying on a level board, a level camera: the "
+             "job); 0 = measured from the rim (a shelf that is not level)"),
       number("track_level_pitch", FIELD(tracker.level_pitch), -0.5, 0.5, "",
              "slope y/z of a level spool's axis in the camera optical frame (tan of the camera's downward tilt)"),
       number("track_gate", FIELD(tracker.gate), 1.0, 100.0, "",

@@ -703,7 +703,9 @@ TEST(SpoolTracker, ALevelSpoolsPitchStandsInForTheRimsBiasedOne)
   const cv::Vec3d biased = cv::normalize(cv::Vec3d(std::tan(yaw), std::tan(pitch), 1.0));
   DetectorParams level;
   level.tracker.level_pitch_sigma = 0.1 * M_PI / 180.0;
-  SpoolTracker from_rim;
+  DetectorParams rim = level;
+  rim.tracker.level_pitch_sigma = 0.0;
+  SpoolTracker from_rim(rim);
   SpoolTracker levelled(level);
   bool rim_aligned = false;
   bool level_aligned = false;
