@@ -111,6 +111,10 @@ public:
   /// and its radius within kOuterRimMargin, or this many px where that is more (a 13 px bore at
   /// 320x240 is measured to about a pixel).
   static constexpr double kOwnBoreAgreementPx = 1.0;
+  /// The bore's rim at its own size must outscore the one at the flange's size by this (rim
+  /// support, 0-1): rib rings gave 0.31 against 0.89 (closed-loop seed 1844) and 0.54-0.65 against
+  /// 1.0 (seed 1918), a drawn bore of the right size 1.0 against 1.0 a pixel and a half larger.
+  static constexpr double kOwnBoreMargin = 0.1;
   /// Around a tracked rim's hole window the pixels within this many of its largest radius are
   /// preprocessed: the bore's disc contrast reads a ring out to twice its radius.
   static constexpr double kDiscReach = 2.2;

@@ -564,9 +564,11 @@ bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hol
   hole_hough_.detect(hole_edges_, preprocessed_.size(), own, own_bores_);
   const auto best = std::max_element(own_bores_.begin(), own_bores_.end(),
                                      [](const Circle& a, const Circle& b) { return a.score < b.score; });
-  // The bore's rim at its own size must be at least as well supported as the one the flange's size
-  // gave: a faint ring about a true bore (a hub, a chamfer) is not its rim.
-  if (best == own_bores_.end() || best->score < hole.score)
+  // The bore's rim at its own size must be better supported than the one the flange's size gave,
+  // by kOwnBoreMargin: a faint ring about a true bore (a hub, a chamfer) is not its rim, and a
+  // sharp bore whose size the flange gave right supports a circle a pixel or two larger as well
+  // as its own (the fit's band): a tie is no evidence.
+  if (best == own_bores_.end() || best->score < hole.score + kOwnBoreMargin)
     return false;
   bore = *best;
   return true;

@@ -255,6 +255,36 @@ TEST(SpoolDetector, AStrongFlangeWhoseBoreShowsOnlyAsADarkBlurIsASpoolWithLowCon
   EXPECT_FALSE(SpoolDetector(bore).detect(plate, PixelFormat::kBgr8).detected);
 }
 
+TEST(SpoolDetector, ASharpBoreOfTheRightSizeDoesNotMakeItsFlangeARibRing)
+{
+  // A spool cut by the frame's border with a sharp bore, drawn as the ROS tests draw it
+  // (test/ros/drawn_frames.py: cv::circle, anti-aliased, f = 800 px): a circle a pixel or two
+  // larger than the bore was as well supported as the bore's own rim (the fit's band), which read
+  // as "the bore is larger than the flange allows", and a ghost about the cut rim was taken as the
+  // flange (0.87 m for 1.0 m).
+  CameraIntrinsics camera = kVga;
+  camera.fx = camera.fy = 800.0;
+  camera.cx = 319.5;
+  camera.cy = 239.5;
+  SpoolDetector detector;
+  detector.setCamera(camera);
+  for (const double lateral : {0.26, 0.28, 0.3})
+  {
+    const DrawnSpool s = spoolAt(camera, 1.0, lateral, 0.06);
+    ASSERT_GT(s.x + s.flange_r, 640.0);
+    cv::Mat image(480, 640, CV_8UC1, cv::Scalar(170));
+    constexpr int kShift = 4;
+    const cv::Point centre(cvRound(s.x * (1 << kShift)), cvRound(s.y * (1 << kShift)));
+    cv::circle(image, centre, cvRound(s.flange_r * (1 << kShift)), cv::Scalar(35), cv::FILLED, cv::LINE_AA, kShift);
+    cv::circle(image, centre, cvRound(s.hole_r * (1 << kShift)), cv::Scalar(235), cv::FILLED, cv::LINE_AA, kShift);
+    const SpoolDetection d = detector.detect(image, PixelFormat::kMono8);
+    SCOPED_TRACE("lateral " + std::to_string(lateral) + " m");
+    ASSERT_TRUE(d.hole_detected);
+    EXPECT_NEAR(d.flange.r, s.flange_r, 0.01 * s.flange_r);
+    EXPECT_NEAR(d.distance, 1.0, 0.01);
+  }
+}
+
 TEST(SpoolDetector, NothingOnAnEmptyShelf)
 {
   SpoolDetector detector;
