@@ -806,8 +806,6 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
   since_full_search_ = frame.full_search ? 0 : since_full_search_ + 1;
   frame.track = tracker_.update(frame.raw, stamp, detector_.camera(), frame.full_search, motion);
   frame.published = trackedDetection(frame.raw, frame.track, detector_.params().geometry);
-  if (getenv("SPOOL_DEBUG"))
-    fprintf(stderr, "DBG t %.2f win %d rim %d full %d | raw det %d hole %d d %.4f fl %.1f %.1f %.2f sc %.2f conf %.2f | state %d age %d rej %d z %.4f al %d\n", stamp, window ? 1 : 0, window && window->rim.radius > 0 ? 1 : 0, frame.full_search ? 1 : 0, frame.raw.detected, frame.raw.hole_detected, frame.raw.distance, frame.raw.flange.x, frame.raw.flange.y, frame.raw.flange.r, frame.raw.flange.score, frame.raw.confidence, static_cast<int>(frame.track.state), frame.track.age, frame.track.rejected_now ? 1 : 0, frame.track.position.z, frame.track.aligned ? 1 : 0);
   return frame;
 }
 
