@@ -24,6 +24,8 @@ struct RimSearch
   /// the least gradient, as a fraction of full scale (edge_threshold: a 3x3 Sobel's 4 * 255)
   double threshold = 0.05;
   double sigma = 0.0;  ///< px, the Gaussian the profile is smoothed with along the normal (the detector's filter)
+  /// At most this many samples of the rim (MovingEdges::kMaxSamples; a coarse look takes fewer)
+  int max_samples = 96;
 };
 
 /// Finds a predicted rim in a frame by moving edges and fits the detector's rim model to it.
@@ -35,7 +37,7 @@ public:
   void setCamera(const CameraIntrinsics& camera);
 
   /// Measures `prediction`'s rim in `image` (a frame of `format` from setCamera()'s camera):
-  /// a sample every 5 px of the predicted rim (24 to kMaxSamples, the prediction's circle
+  /// a sample every 5 px of the predicted rim (kMinSamples to search.max_samples, the prediction's circle
   /// projected through the pinhole), each moved to the strongest edge of `search.polarity` within
   /// `search.reach` along its normal (the profile read bilinearly on two lines a px apart, smoothed
   /// by `search.sigma`; sub-pixel: a parabola through the gradient's peak). The rim is then the
@@ -54,6 +56,16 @@ public:
   {
     return on_rim_;
   }
+  /// How many of the last measure()'s samples had their whole normal inside the frame.
+  std::size_t samplesInFrame() const
+  {
+    return in_frame_;
+  }
+  /// The last successful measure()'s rim over its prediction: the scale of the fit (1 + e).
+  double fittedScale() const
+  {
+    return scale_;
+  }
   /// The last measure()'s predicted rim (undistorted px), for overlays and tests.
   const std::vector<cv::Point2d>& predictedRim() const
   {
@@ -61,6 +73,7 @@ public:
   }
 
   static constexpr int kMaxSamples = 96;
+  static constexpr int kMinSamples = 24;
   static constexpr std::size_t kMinEdges = 12;
 
 private:
@@ -79,6 +92,8 @@ private:
   std::vector<cv::Point2f> on_rim_;
   std::vector<float> profile_, smoothed_, kernel_;
   std::vector<double> scratch_;
+  std::size_t in_frame_ = 0;
+  double scale_ = 1.0;
 };
 
 }  // namespace spool_vision

@@ -11,6 +11,7 @@
 #include "spool_vision/hough_accumulator.h"
 #include "spool_vision/moving_edges.h"
 #include "spool_vision/preprocessor.h"
+#include "spool_vision/rim_pose_search.h"
 #include "spool_vision/spool_geometry.h"
 #include "spool_vision/types.h"
 
@@ -206,9 +207,66 @@ private:
   double boreContrast(const cv::Point2d& centre, double r) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
+  /// How MovingEdges searches a predicted rim: `reach` px either way, either polarity, half of
+  /// edge_threshold, smoothed as the detector's filter smooths.
+  RimSearch rimSearch(double reach) const;
+  /// Whole frame, no spool with a hole rim found: a spool seen far off its axis, found about its bore.
+  /// About each of the first kObliqueCandidates flange candidates nearest the reference (at least
+  /// kObliqueRimMinRadius), holes are searched within kObliqueBoreShift of its size of its centre
+  /// (a circle the Hough search fitted around an oblique flange and its back flange's silhouette is
+  /// that far off the bore) at 0.5-1.2 the size the candidate gives; about the best kObliqueHoles
+  /// whose rim is in the frame (kMinHoleVisibleFraction) and whose disc shows (bore_contrast), the
+  /// rim is searched (RimPoseSearch) from kObliqueNearest to kObliqueFarthest of
+  /// the depth the hole's size gives (within distance_min..distance_max). The first rim with
+  /// kObliqueSpoolSupport whose bore is at the puller's level and counts on it (holeCountsOn) is the spool: `result`
+  /// (undistorted px, its rim in oblique_rim_) and true.
+  bool obliqueSpool(const cv::Mat& image, PixelFormat format, const HoughSearch& hole_search, SpoolDetection& result);
+  /// rim_ for a rim RimPoseSearch found: the frame's edges on it (gatherRim()) where there are
+  /// kMinGatheredRim, else the search's moving edges.
+  void takeObliqueRim();
+  /// A whole-frame result with a hole rim, measured again about its bore (RimPoseSearch) when its
+  /// own pose's rim, measured by moving edges, has under kObliqueRimSupport of support: the
+  /// search's rim replaces the flange and its edges the rim when it is supported by at least
+  /// kObliqueRimMargin more, and the pose is measured again on it. `result` is in undistorted px.
+  void measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                         SpoolDetection& result);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
   /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
   void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);
+
+  /// A result whose own pose's rim has at least this support is not searched again about its bore
+  /// (a rim the Hough search measured well has 0.8-1; a circle around an oblique rim's ellipse
+  /// fails the 3-D fit: 0).
+  static constexpr double kObliqueRimSupport = 0.5;
+  /// Nor is a flange under this vertical semi-axis (px): its rim has too few moving-edge samples
+  /// (one per 5 px) for the 3-D fit's 30.
+  static constexpr double kObliqueRimMinRadius = 40.0;
+  /// Nor a rim with fewer samples in the frame at its own pose (a flange mostly out of the frame).
+  static constexpr std::size_t kObliqueRimMinSamples = 48;
+  /// ... and the search's rim replaces it only with this much more support.
+  static constexpr double kObliqueRimMargin = 0.15;
+  /// ... and with at least this support (a rim cut by the border whose bore was found off centre
+  /// gave a rib ring at 0.51; the oblique rims replaced 0.6-0.85).
+  static constexpr double kObliqueRimMinSupport = 0.55;
+  /// The moving edges' reach there: this fraction of the flange's vertical semi-axis, at least
+  /// kObliqueRimReachPx.
+  static constexpr double kObliqueRimReach = 0.06;
+  static constexpr double kObliqueRimReachPx = 3.0;
+  /// The depths measureObliqueRim() tries, as fractions of the result's (a circle the Hough search
+  /// took around an oblique rim is up to ~20% too large; one inside it, a rib ring, is the
+  /// inner-ring check's).
+  static constexpr double kObliqueNearest = 0.93;
+  static constexpr double kObliqueFarthest = 1.21;
+  /// obliqueSpool()'s candidates, the bore's offset from their centres (of their radius), holes per
+  /// candidate, the depths it tries about the hole's (a dark bore's rim seen obliquely measures
+  /// within ~15% of its size) and the support its rim needs.
+  static constexpr int kObliqueCandidates = 2;
+  static constexpr double kObliqueBoreShift = 0.35;
+  static constexpr int kObliqueHoles = 1;
+  static constexpr double kObliqueBoreNearest = 0.7;
+  static constexpr double kObliqueBoreFarthest = 1.25;
+  static constexpr double kObliqueSpoolSupport = 0.75;
+  static constexpr std::size_t kMinGatheredRim = 60;
 
   /// Below this fraction of its rim in the frame a flange fit is often a neighbour's back flange
   /// or its joint silhouette with the front one, centred anywhere on that neighbour's face
@@ -227,6 +285,9 @@ private:
   HoughAccumulator hole_hough_;
   HoughAccumulator lens_hough_;
   MovingEdges moving_edges_;  ///< its own: a shared one would be resized every frame
+  RimPoseSearch rim_pose_search_;
+  RimPoseFit own_rim_;      ///< the result's own pose's rim (measureObliqueRim)
+  RimPoseFit oblique_rim_;  ///< the search's best rim (measureObliqueRim)
   ConcentricMatcher matcher_;
   std::optional<CameraIntrinsics> camera_;
   std::optional<SpoolGeometry> geometry_;

@@ -29,6 +29,12 @@ public:
     return camera_;
   }
 
+  /// m, the flange's diameter (flange_diameter)
+  double flangeDiameter() const
+  {
+    return params_.flange_diameter;
+  }
+
   /// Eq. 3.2 verbatim: f * flange diameter / diameter_px (depth along the axis, m).
   double depthFromDiameter(double diameter_px) const;
 

@@ -16,7 +16,6 @@ namespace
 {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kSampleSpacing = 5.0;  // px of rim between samples
-constexpr int kMinSamples = 24;
 // A step that a 3x3 Sobel answers with its full scale (4 * 255) rises by 255 over the two pixels
 // a central difference spans: edge_threshold t is a half-difference of t * 127.5 levels per px.
 constexpr double kHalfDifferenceFullScale = 127.5;
@@ -307,6 +306,7 @@ bool MovingEdges::fit(cv::Size size, std::size_t in_frame, Circle& rim)
   model.r_horizontal *= scale;
   model.r_vertical *= scale;
   model.visible_fraction = visibleRimFraction(model.x, model.y, model.r, size);
+  scale_ = scale;
   model.score =
       std::min(1.0, static_cast<double>(on_rim_.size()) / static_cast<double>(std::max<std::size_t>(in_frame, 1)));
   rim = model;
@@ -320,10 +320,12 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
     throw std::invalid_argument("MovingEdges: the image's type does not fit its pixel format");
   on_rim_.clear();
   found_.clear();
+  in_frame_ = 0;
   if (!(prediction.centre.z > 0.01) || !(prediction.radius > 0.0))
     return false;
   const double circumference = 2.0 * kPi * camera_.fy * prediction.radius / prediction.centre.z;
-  const int count = std::clamp(static_cast<int>(circumference / kSampleSpacing), kMinSamples, kMaxSamples);
+  const int count = std::clamp(static_cast<int>(circumference / kSampleSpacing), kMinSamples,
+                               std::clamp(search.max_samples, kMinSamples, kMaxSamples));
   if (!project(prediction, count))
     return false;
   std::size_t in_frame = 0;
@@ -348,6 +350,7 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
       in_frame = searchNormals(Bilinear<Colour<4, 2, 0>>{{image}}, image.size(), search);
       break;
   }
+  in_frame_ = in_frame;
   return fit(image.size(), in_frame, rim);
 }
 

@@ -77,6 +77,7 @@ const SpoolGeometry& SpoolDetector::geometryFor(cv::Size size)
   preprocessor_.setParams(params_.preprocess, camera.fy);
   edge_detector_.setUndistortion(camera);
   moving_edges_.setCamera(camera);
+  rim_pose_search_.setCamera(camera);
   return *geometry_;
 }
 
@@ -182,6 +183,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                      params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
                      !(cost <= result.flange.r);
   const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
+  const bool oblique = !either && !along_rim && (!window || window->whole_frame) && !result.hole_detected &&
+                       obliqueSpool(image, format, hole_search, result);
   if (along_rim)
   {
     // The moving edges on the rim are its edges, while the flange is theirs.
@@ -193,8 +196,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   else
   {
     gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
+    if (oblique)
+      takeObliqueRim();
   }
   geometry.measure(result, rim_);
+  if ((!window || window->whole_frame) && !along_rim && result.hole_detected)
+    measureObliqueRim(image, format, geometry, result);
   measureBoreParallax(geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
   Circle bore;
@@ -272,20 +279,57 @@ void SpoolDetector::prepareAround(const cv::Mat& image, PixelFormat format, cons
 bool SpoolDetector::measureAlongRim(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
                                     const HoughSearch& flange_search, Circle& flange)
 {
+  if (!moving_edges_.measure(image, format, window.rim, rimSearch(window.rim_reach), flange))
+    return false;
+  // The window's tests: enough of the rim, and a fit that stayed where the track allows.
+  return flange.score >= flange_search.min_score && flange.r_vertical >= flange_search.r_min &&
+         flange.r_vertical <= flange_search.r_max && flange_search.center_window.contains({flange.x, flange.y});
+}
+
+RimSearch SpoolDetector::rimSearch(double reach) const
+{
   const PreprocessParams& pre = params_.preprocess;
   RimSearch search;
-  search.reach = window.rim_reach;
-  // Either way: within a few px of the tracked rim its own edge is the strongest, whichever side
+  search.reach = reach;
+  // Either way: within a few px of a predicted rim its own edge is the strongest, whichever side
   // is darker (a grey face against a dark shelf board shows it bright inside, where the dark
   // search would take the back flange's silhouette around it).
   search.polarity = Polarity::kAny;
   search.threshold = kAlongRimThreshold * params_.hough.edge_threshold;
   search.sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * geometry_->camera().fy : 0.0;
-  if (!moving_edges_.measure(image, format, window.rim, search, flange))
-    return false;
-  // The window's tests: enough of the rim, and a fit that stayed where the track allows.
-  return flange.score >= flange_search.min_score && flange.r_vertical >= flange_search.r_min &&
-         flange.r_vertical <= flange_search.r_max && flange_search.center_window.contains({flange.x, flange.y});
+  return search;
+}
+
+void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                      SpoolDetection& result)
+{
+  if (!(result.position.z > 0.0) || result.flange.r_vertical < kObliqueRimMinRadius)
+    return;
+  // The poses tried are a few % apart in size and 10 deg in axis: the reach covers half of that.
+  const RimSearch search = rimSearch(std::max(kObliqueRimReachPx, kObliqueRimReach * result.flange.r_vertical));
+  const cv::Point2d bore(result.hole.x, result.hole.y);
+  const double own =
+      rim_pose_search_.measure(image, format, geometry, bore, result.position, result.axis, search, own_rim_)
+          ? own_rim_.support
+          : 0.0;
+  // A rim mostly out of the frame has too few samples for any pose's fit: nothing to compare.
+  if (own >= kObliqueRimSupport || rim_pose_search_.samplesInFrame() < kObliqueRimMinSamples ||
+      !rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
+                               kObliqueFarthest * result.position.z, search, oblique_rim_) ||
+      oblique_rim_.support < std::max(own + kObliqueRimMargin, kObliqueRimMinSupport))
+    return;
+  result.flange = oblique_rim_.rim;
+  gatherRim(result, params_.hough.flange_polarity);
+  takeObliqueRim();
+  geometry.measure(result, rim_);
+}
+
+void SpoolDetector::takeObliqueRim()
+{
+  // The frame's edges on the search's rim are placed where the light crosses half-way and are
+  // many; the moving edges, one per sample, only where too few of those are on it.
+  if (rim_.size() < kMinGatheredRim)
+    rim_.assign(oblique_rim_.edges.begin(), oblique_rim_.edges.end());
 }
 
 bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,
@@ -400,6 +444,61 @@ void takeSpool(const Circle& flange, const std::optional<Circle>& hole, SpoolDet
     result.hole = *hole;
 }
 }  // namespace
+
+bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const HoughSearch& hole_search,
+                                 SpoolDetection& result)
+{
+  if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright)
+    return false;
+  const SpoolGeometry& geometry = *geometry_;
+  const GeometryParams& gp = params_.geometry;
+  const RimSearch search = rimSearch(0.0);
+  int tried = 0;
+  for (const std::size_t i : order_)
+  {
+    const Circle flange = flanges_[i];
+    if (flange.r_vertical < kObliqueRimMinRadius)
+      continue;
+    if (tried++ == kObliqueCandidates)
+      break;
+    HoughSearch holes = hole_search;
+    const double shift = kObliqueBoreShift * flange.r_vertical;
+    holes.center_window = cv::Rect2d(flange.x - shift, flange.y - shift, 2.0 * shift, 2.0 * shift);
+    const double expected = matcher_.holeRadius(flange);
+    holes.r_min = std::max(hole_search.r_min, 0.5 * expected);
+    holes.r_max = std::min(hole_search.r_max, 1.2 * expected);
+    if (holes.r_min >= holes.r_max)
+      continue;
+    extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+    detectHoles(holes);
+    int searched = 0;
+    for (std::size_t h = 0; h < holes_.size() && searched < kObliqueHoles; ++h)
+    {
+      // A bore whose whole rim is in the frame and which shows as a disc (a ring of the bore's
+      // size on a neighbour's face cut by the border, or on a plate, is no spool).
+      const Circle hole = holes_[h];
+      if (hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
+          boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
+        continue;
+      ++searched;
+      const double depth = geometry.camera().fy * gp.hole_diameter / (2.0 * hole.r);
+      RimSearch reach = search;
+      reach.reach =
+          std::max(kObliqueRimReachPx, kObliqueRimReach * geometry.camera().fy * 0.5 * gp.flange_diameter / depth);
+      if (!rim_pose_search_.search(image, format, geometry, {hole.x, hole.y},
+                                   std::max(gp.distance_min, kObliqueBoreNearest * depth),
+                                   std::min(gp.distance_max, kObliqueBoreFarthest * depth), reach, oblique_rim_) ||
+          oblique_rim_.support < kObliqueSpoolSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
+          !holeCountsOn(SpoolMatch{oblique_rim_.rim, hole}))
+        continue;
+      takeSpool(oblique_rim_.rim, hole, result);
+      measureBoreAtKnownSize(result);
+      findLens(result);
+      return true;
+    }
+  }
+  return false;
+}
 
 double SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSearch& flange_search,
                                    const HoughSearch& hole_search, SpoolEvidence evidence, double bound,

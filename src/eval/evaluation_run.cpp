@@ -262,6 +262,8 @@ int FrameCounts::of(FrameSet set) const
       return hard;
     case FrameSet::kDistorted:
       return distorted;
+    case FrameSet::kOblique:
+      return oblique;
     case FrameSet::kApproach:
     case FrameSet::kApproachHard:
       break;

@@ -12,12 +12,13 @@ namespace
 {
 constexpr double kDeg = M_PI / 180.0;
 
-constexpr std::array<std::pair<FrameSet, const char*>, 6> kSetNames = {{{FrameSet::kMain, "main"},
+constexpr std::array<std::pair<FrameSet, const char*>, 7> kSetNames = {{{FrameSet::kMain, "main"},
                                                                         {FrameSet::kApproach, "approach"},
                                                                         {FrameSet::kNegatives, "negatives"},
                                                                         {FrameSet::kHard, "hard"},
                                                                         {FrameSet::kDistorted, "distorted"},
-                                                                        {FrameSet::kApproachHard, "approach_hard"}}};
+                                                                        {FrameSet::kApproachHard, "approach_hard"},
+                                                                        {FrameSet::kOblique, "oblique"}}};
 
 std::uint64_t frameSeed(std::uint64_t seed, int index)
 {
@@ -41,7 +42,7 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   SceneKind kind = SceneKind::kSpool;
   if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
     kind = randomNegative(rng);
-  const bool hard = set == FrameSet::kHard;
+  const bool hard = set == FrameSet::kHard || set == FrameSet::kOblique;
   scene = hard ? randomHardScene(kind, seed) : randomScene(kind, seed);
   // Drawn last to first: the order in which the compiler evaluated these as call arguments
   // when the main set was first rendered, which keeps the main set's frames as they were.
@@ -51,6 +52,14 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   const double bearing = rng.uniform(-20.0, 20.0) * kDeg;
   const double distance = rng.uniform(0.5, 1.1);
   pose = bearingPose(distance, bearing, heading, height, pitch);
+  if (set == FrameSet::kOblique)
+  {
+    // The camera beside the slot: the line of sight 25-40 deg off the spool axis, either side
+    // (bearingPose: the view off the axis is bearing + heading). Drawn after main's draws.
+    const double view = (rng.uniform(0.0, 1.0) < 0.5 ? 1.0 : -1.0) * rng.uniform(25.0, 40.0) * kDeg;
+    const double oblique_bearing = rng.uniform(-15.0, 15.0) * kDeg;
+    pose = bearingPose(distance, oblique_bearing, view - oblique_bearing, height, pitch);
+  }
   if (hard)
   {
     // The rod's top edge must stay below the hole's bottom rim in the image (angles below the
@@ -182,7 +191,7 @@ CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
   CameraIntrinsics camera = CameraIntrinsics::thesisDefault(size.width, size.height);
   if (focal > 0.0)
     camera.fx = camera.fy = focal;
-  if (set == FrameSet::kHard || set == FrameSet::kApproachHard)
+  if (set == FrameSet::kHard || set == FrameSet::kApproachHard || set == FrameSet::kOblique)
   {
     camera.cx += 0.015 * size.width;
     camera.cy -= 0.012 * size.height;

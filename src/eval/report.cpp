@@ -528,20 +528,22 @@ std::string introSection(const EvaluationResult& result)
     counts.push_back(
         {setup.name, std::to_string(setup.counts.main), std::to_string(setup.counts.negatives),
          std::to_string(setup.counts.hard), std::to_string(setup.counts.distorted),
+         std::to_string(setup.counts.oblique),
          toleranceText(holeTolerance(CameraIntrinsics::thesisDefault(setup.size.width, setup.size.height))),
          setup.analyses ? "yes" : "no"});
   md << "# spool_vision evaluation\n\n"
      << "Written by `spool_eval`. Every frame is rendered by `SpoolRenderer` with exact ground truth, from seed "
      << config.seed << ": the main set (as `spool_render --set main`: spools at 50-110 cm and ±20° bearing, all "
      << "four lamp conditions, neighbours, about 15% negatives), the negatives set (empty slots, plates, tape "
-     << "rolls, cans), the hard set (real-webcam effects, DESIGN.md §7) and the distorted set (a C270-like lens, "
-     << "below). Each set is rendered once per size and "
+     << "rolls, cans), the hard set (real-webcam effects, DESIGN.md §7), the distorted set (a C270-like lens, "
+     << "below) and the oblique set (the hard set's scenes seen 25-40° off the spool axis). Each set is rendered once "
+        "per size and "
      << "shared by the setups of that size; the same seed gives the same scenes at every size, and a setup with "
      << "fewer frames takes the first ones. Controlled poses use " << config.pose_repeats
      << " scene(s) per pose, without neighbours, all lamps on. Times are the detector's own "
      << "(`SpoolDetection::time_ms`), one OpenCV thread, on the machine that ran this (shared machines make them "
      << "noisy).\n\n"
-     << markdownTable({"setup", "main frames", "negatives frames", "hard frames", "distorted frames",
+     << markdownTable({"setup", "main frames", "negatives frames", "hard frames", "distorted frames", "oblique frames",
                        "hole tolerance (front rim)", "thesis analyses"},
                       counts)
      << "\n";

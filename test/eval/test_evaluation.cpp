@@ -106,15 +106,45 @@ TEST(LabelledSets, EachSetHasOneNameThatReadsBack)
 {
   std::set<std::string> names;
   for (sv::FrameSet set : {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
-                           sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard})
+                           sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard, sv::FrameSet::kOblique})
   {
     const std::string name = sv::toString(set);
     names.insert(name);
     EXPECT_EQ(sv::frameSetNamed(name), set) << name;
   }
-  EXPECT_EQ(names, (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted", "approach_hard"}));
+  EXPECT_EQ(names,
+            (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted", "approach_hard", "oblique"}));
   EXPECT_FALSE(sv::frameSetNamed("Main").has_value());
   EXPECT_FALSE(sv::frameSetNamed("").has_value());
+}
+
+TEST(LabelledSets, TheObliqueSetSeesItsSpools25To40DegreesOffTheirAxis)
+{
+  // The truth's own geometry, not the pose the set drew: the angle between the line of sight to
+  // the bore's front centre and the spool axis, and the bearing.
+  const sv::SpoolRenderer renderer(sv::setCamera(sv::FrameSet::kOblique, {160, 120}));
+  int spools = 0;
+  int left = 0;
+  for (int i = 0; i < 40; ++i)
+  {
+    sv::SceneParams scene;
+    sv::CameraPose pose;
+    sv::setFrame(sv::FrameSet::kOblique, 5, i, 40, scene, pose);
+    const sv::GroundTruth t = renderer.groundTruth(scene, pose);
+    if (t.kind != sv::SceneKind::kSpool)
+      continue;
+    ++spools;
+    const cv::Vec3d sight = cv::normalize(cv::Vec3d(t.position.x, t.position.y, t.position.z));
+    const double view = std::acos(std::abs(sight.dot(t.axis))) * 180.0 / M_PI;
+    EXPECT_GE(view, 24.0) << i;
+    EXPECT_LE(view, 41.0) << i;
+    EXPECT_LE(std::abs(t.yaw), 16.0 * M_PI / 180.0) << i;
+    left += t.axis[0] * sight[2] - t.axis[2] * sight[0] > 0.0;
+  }
+  EXPECT_GE(spools, 28);
+  // Both sides.
+  EXPECT_GT(left, 0);
+  EXPECT_LT(left, spools);
 }
 
 TEST(Statistics, PercentilesInterpolateBetweenOrderStatisticsAndSkipNaN)
@@ -565,7 +595,7 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
   good.metrics.axis_angle_error_deg = {0.3, 0.9, 100, 100};
   good.metrics.unsafe_aligned = {0, 900};
   good.metrics.aligned_recall = {48, 50};
-  const sv::SetupResult all_good{{good, good, good}, {}};  // main + negatives, hard, distorted
+  const sv::SetupResult all_good{{good, good, good, good}, {}};  // main + negatives, hard, distorted, oblique
   r.setups = {all_good, all_good, all_good};
   auto reset = [&] { r.setups = {all_good, all_good, all_good}; };
   for (size_t s = 0; s < 3; ++s)
@@ -895,14 +925,14 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
                    {160, 120},
                    config("seed.yaml"),
                    sv::QualityBars::thesisReproduction(),
-                   {12, 6, 4, 6},
+                   {12, 6, 4, 6, 4},
                    true,
                    false},
                   {"default.yaml @ 160x120",
                    {160, 120},
                    config("default.yaml"),
                    sv::QualityBars::forDefault({160, 120}),
-                   {6, 3, 2, 3},
+                   {6, 3, 2, 3, 2},
                    false,
                    true}};
   small.pose_repeats = 1;
@@ -911,14 +941,16 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
   EXPECT_GT(progress_calls, 18);
   ASSERT_EQ(r.setups.size(), 2u);
-  ASSERT_EQ(r.setups[0].per_group.size(), 3u);  // main + negatives, hard, distorted
+  ASSERT_EQ(r.setups[0].per_group.size(), 4u);  // main + negatives, hard, distorted, oblique
   EXPECT_EQ(r.setups[0].per_group[0].frames, 18);
   EXPECT_EQ(r.setups[0].per_group[0].metrics.time_ms.count, 18);
   EXPECT_EQ(r.setups[0].per_group[1].frames, 4);
   EXPECT_EQ(r.setups[0].per_group[2].frames, 6);
+  EXPECT_EQ(r.setups[0].per_group[3].frames, 4);
   EXPECT_EQ(r.setups[1].per_group[0].frames, 9);
   EXPECT_EQ(r.setups[1].per_group[1].frames, 2);
   EXPECT_EQ(r.setups[1].per_group[2].frames, 3);
+  EXPECT_EQ(r.setups[1].per_group[3].frames, 2);
   EXPECT_TRUE(r.setups[0].approaches.empty());
   ASSERT_EQ(r.setups[1].approaches.size(), 1u);
   EXPECT_EQ(r.setups[1].approaches[0].frames, sv::EvaluationConfig::kApproachFrames);

@@ -37,6 +37,10 @@ enum class FrameSet
   /// turned 0.8-1.3 deg or 2.8-4 mm beside the bore's axis: it would touch), so both sides of
   /// aligned are measured
   kApproachHard,
+  /// The hard set's scenes seen 25-40 deg off the spool axis (the camera beside the slot, turned
+  /// towards it: a spool turned on its shelf looks the same), bearing within +-15 deg: the flange
+  /// an ellipse 0.77-0.9 as wide as high, the back flange's silhouette beside it
+  kOblique,
 };
 
 /// The set's name, as spool_render's --set and the truth files' "set" write it ("main", ...).
@@ -324,6 +328,7 @@ struct FrameCounts
   int negatives = 200;  ///< negatives set
   int hard = 200;       ///< hard set
   int distorted = 400;  ///< distorted set
+  int oblique = 200;    ///< oblique set
   int of(FrameSet set) const;
 };
 
@@ -354,7 +359,8 @@ struct EvaluationConfig
   std::vector<Setup> setups;
   std::vector<SetGroup> groups = {{"main + negatives", {FrameSet::kMain, FrameSet::kNegatives}},
                                   {"hard", {FrameSet::kHard}},
-                                  {"distorted (C270 lens)", {FrameSet::kDistorted}, true}};
+                                  {"distorted (C270 lens)", {FrameSet::kDistorted}, true},
+                                  {"oblique (25-40 deg off the axis)", {FrameSet::kOblique}}};
   std::uint64_t seed = 1;
   int pose_repeats = 3;  ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
   /// approach_hard sequences per size followed by the tracker (seeds seed * 1000 + 1, + 2, ...),

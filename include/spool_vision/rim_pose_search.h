@@ -1,0 +1,91 @@
+// Stage 3b: an oblique flange's rim found about its bore. The Hough search votes for circles, and
+// seen 25-40 deg off its axis a flange is an ellipse 0.77-0.9 as wide as it is high: the best
+// circle then runs along what lies beside the rim (the back flange's silhouette, a touching
+// neighbour) and the pose fitted to it is wrong by 10-15% of depth. About the bore (the centre of
+// the face), the rim is a circle of the flange's diameter whose depth and axis are unknown: poses
+// are tried, each measured by moving edges (MovingEdges), and the best refined by the 3-D rim fit
+// (SpoolGeometry::fitRimPose).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "spool_vision/moving_edges.h"
+#include "spool_vision/spool_geometry.h"
+#include "spool_vision/types.h"
+
+namespace spool_vision
+{
+/// A flange rim measured at one pose.
+struct RimPoseFit
+{
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  cv::Point3d position{kNaN, kNaN, kNaN};  ///< m, the bore's front centre, camera optical frame
+  cv::Vec3d axis{kNaN, kNaN, kNaN};        ///< unit, the spool axis (into the spool), camera optical frame
+  Circle rim;                              ///< undistorted px: the rim model of MovingEdges' fit at the starting pose
+  /// Fraction of the rim's samples inside the frame whose edge lies within the 3-D fit's band
+  /// (SpoolGeometry::fitRimPose's support over MovingEdges::samplesInFrame()), 0..1
+  double support = 0.0;
+  std::vector<cv::Point2f> edges;  ///< the edges on the rim (undistorted px), for the pose
+};
+
+class RimPoseSearch
+{
+public:
+  /// The camera of the frames (MovingEdges::setCamera). Throws std::invalid_argument on invalid
+  /// intrinsics.
+  void setCamera(const CameraIntrinsics& camera);
+
+  /// The rim of the flange whose bore's front centre shows at `bore` (undistorted px), measured
+  /// from the pose (`position`, m; `axis`, unit; camera optical frame; a NaN axis faces the
+  /// camera): moving edges along that pose's rim (`search`), then fitRimPose() on them from that
+  /// pose. False (fit untouched) when either finds too little. Throws std::invalid_argument when
+  /// the image does not fit `format`.
+  bool measure(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+               const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, RimPoseFit& fit);
+
+  /// The best-supported rim about `bore` over poses on its ray: depths from `nearest` to
+  /// `farthest` (m), kDepthStep apart, and level axes (no pitch: spools lie on a level board)
+  /// turned up to kMaxViewAngle either way off the line of sight, kYawStep apart. Each is measured
+  /// by moving edges (kCoarseSamples of them); the kRefined whose edges cover most of the rim are
+  /// fitted in 3-D (measure()) and the one with the most support wins, then outermost() from
+  /// it. `nearest` and `farthest` positive, nearest <= farthest. False when none fits.
+  bool search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+              double nearest, double farthest, const RimSearch& search, RimPoseFit& best);
+
+  /// How many samples of the last measure()'s rim had their whole normal in the frame.
+  std::size_t samplesInFrame() const
+  {
+    return moving_edges_.samplesInFrame();
+  }
+
+  /// 40 deg: the widest view off the spool axis a pose is taken at (SpoolGeometry::measure).
+  static constexpr double kMaxViewAngle = 0.6981317007977318;
+  /// 10 deg: the moving edges' reach covers the rim's shift between neighbouring axes.
+  static constexpr double kYawStep = 0.17453292519943295;
+  /// 7% of depth between poses: within the moving edges' reach (6% of the rim's size) either way.
+  static constexpr double kDepthStep = 1.07;
+  static constexpr std::size_t kRefined = 4;
+  /// A larger rim about the same axis with this share of the best rim's support is the flange,
+  /// the best one a rib ring on its face (outermost()).
+  static constexpr double kOuterSupport = 0.7;
+  /// Samples of each pose's rim in the scan (the kRefined are measured at MovingEdges' full count)
+  static constexpr int kCoarseSamples = 32;
+
+private:
+  /// The flange is the outermost rim about its bore, and a rib ring on its face is a whole circle
+  /// about the bore too: rims about `best`'s axis are measured outwards, kDepthStep apart, down to
+  /// a depth of `nearest` / kDepthStep, and the outermost with kOuterSupport of `best`'s support
+  /// replaces it.
+  void outermost(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+                 double nearest, const RimSearch& search, RimPoseFit& best);
+
+  MovingEdges moving_edges_;
+  RimPoseFit candidate_;
+};
+
+}  // namespace spool_vision

@@ -1,0 +1,115 @@
+#include "spool_vision/rim_pose_search.h"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace spool_vision
+{
+void RimPoseSearch::setCamera(const CameraIntrinsics& camera)
+{
+  moving_edges_.setCamera(camera);
+}
+
+bool RimPoseSearch::measure(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                            const cv::Point2d& bore, const cv::Point3d& position, const cv::Vec3d& axis,
+                            const RimSearch& search, RimPoseFit& fit)
+{
+  const bool facing = !(std::isfinite(axis[0]) && std::isfinite(axis[1]) && std::isfinite(axis[2]));
+  const cv::Vec3d start = facing ? cv::Vec3d(0.0, 0.0, 1.0) : axis;
+  Circle rim;
+  if (!moving_edges_.measure(image, format, RimPrediction{position, start, 0.5 * geometry.flangeDiameter()}, search,
+                             rim))
+    return false;
+  // From the depth at which the prediction's size matches the edges' (the rim fit's first band is
+  // a few px: a rim 7% larger than predicted lies outside it).
+  cv::Point3d fitted = position / moving_edges_.fittedScale();
+  cv::Vec3d fitted_axis = start;
+  int support = 0;
+  if (!geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support))
+    return false;
+  fit.position = fitted;
+  fit.axis = fitted_axis;
+  fit.rim = rim;
+  fit.support = std::min(1.0, static_cast<double>(support) /
+                                  static_cast<double>(std::max<std::size_t>(1, moving_edges_.samplesInFrame())));
+  fit.edges.assign(moving_edges_.rimEdges().begin(), moving_edges_.rimEdges().end());
+  return true;
+}
+
+bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                           const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
+                           RimPoseFit& best)
+{
+  const CameraIntrinsics& camera = geometry.camera();
+  const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
+  const double line_of_sight = std::atan2(ray.x, ray.z);
+  const int turns = static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9));
+  // The kRefined poses whose moving edges cover most of the rim (score, depth, yaw).
+  struct Pose
+  {
+    double score = 0.0;
+    double depth = 0.0;
+    double yaw = 0.0;
+  };
+  std::array<Pose, kRefined> top{};
+  RimSearch coarse = search;
+  coarse.max_samples = kCoarseSamples;
+  // From `nearest` to `farthest` inclusive, at most kDepthStep apart.
+  const int steps =
+      std::max(1, static_cast<int>(std::ceil(std::log(farthest / nearest) / std::log(kDepthStep) - 1e-9)));
+  for (int step = 0; step <= steps; ++step)
+  {
+    const double depth = nearest * std::pow(farthest / nearest, static_cast<double>(step) / steps);
+    const cv::Point3d centre = ray * depth;
+    for (int k = -turns; k <= turns; ++k)
+    {
+      const double yaw = line_of_sight + k * kYawStep;
+      Circle rim;
+      if (!moving_edges_.measure(
+              image, format,
+              RimPrediction{centre, cv::Vec3d(std::sin(yaw), 0.0, std::cos(yaw)), 0.5 * geometry.flangeDiameter()},
+              coarse, rim))
+        continue;
+      Pose pose{rim.score, depth, yaw};
+      for (Pose& kept : top)
+        if (pose.score > kept.score)
+          std::swap(pose, kept);
+    }
+  }
+  bool found = false;
+  for (const Pose& pose : top)
+  {
+    if (!(pose.score > 0.0))
+      continue;
+    if (measure(image, format, geometry, bore, ray * pose.depth, cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)),
+                search, candidate_) &&
+        (!found || candidate_.support > best.support))
+    {
+      best = candidate_;  // a copy: each keeps its grown capacity
+      found = true;
+    }
+  }
+  if (found)
+    outermost(image, format, geometry, bore, nearest, search, best);
+  return found;
+}
+
+void RimPoseSearch::outermost(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                              const cv::Point2d& bore, double nearest, const RimSearch& search, RimPoseFit& best)
+{
+  const cv::Point3d ray = best.position / best.position.z;
+  const cv::Vec3d axis = best.axis;
+  const double inner = best.position.z;
+  for (double depth = inner / kDepthStep; depth >= nearest / kDepthStep; depth /= kDepthStep)
+  {
+    // Only a rim that stays nearer than the one inside (the moving edges reach back to it from
+    // the first step out) and that is as solid counts.
+    if (measure(image, format, geometry, bore, ray * depth, axis, search, candidate_) &&
+        candidate_.position.z < best.position.z / std::sqrt(kDepthStep) &&
+        candidate_.support >= kOuterSupport * best.support)
+      best = candidate_;
+  }
+}
+
+}  // namespace spool_vision
