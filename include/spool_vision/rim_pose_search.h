@@ -73,16 +73,17 @@ public:
   /// A larger rim about the same axis with this share of the best rim's support is the flange,
   /// the best one a rib ring on its face (outermost()).
   static constexpr double kOuterSupport = 0.7;
+  /// Rib rings lie at 0.6 of the flange's size and more: a rim is looked for out to 1.7 times one.
+  static constexpr double kInnerRing = 1.7;
   /// Samples of each pose's rim in the scan (the kRefined are measured at MovingEdges' full count)
   static constexpr int kCoarseSamples = 32;
 
 private:
   /// The flange is the outermost rim about its bore, and a rib ring on its face is a whole circle
-  /// about the bore too: rims about `best`'s axis are measured outwards, kDepthStep apart, down to
-  /// a depth of `nearest` / kDepthStep, and the outermost with kOuterSupport of `best`'s support
-  /// replaces it.
+  /// about the bore too: rims about `best`'s axis are measured outwards, kDepthStep apart, out to
+  /// kInnerRing times its size, and the outermost with kOuterSupport of `best`'s support replaces it.
   void outermost(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
-                 double nearest, const RimSearch& search, RimPoseFit& best);
+                 const RimSearch& search, RimPoseFit& best);
 
   MovingEdges moving_edges_;
   RimPoseFit candidate_;

@@ -91,17 +91,17 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
     }
   }
   if (found)
-    outermost(image, format, geometry, bore, nearest, search, best);
+    outermost(image, format, geometry, bore, search, best);
   return found;
 }
 
 void RimPoseSearch::outermost(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                              const cv::Point2d& bore, double nearest, const RimSearch& search, RimPoseFit& best)
+                              const cv::Point2d& bore, const RimSearch& search, RimPoseFit& best)
 {
   const cv::Point3d ray = best.position / best.position.z;
   const cv::Vec3d axis = best.axis;
   const double inner = best.position.z;
-  for (double depth = inner / kDepthStep; depth >= nearest / kDepthStep; depth /= kDepthStep)
+  for (double depth = inner / kDepthStep; depth >= inner / kInnerRing; depth /= kDepthStep)
   {
     // Only a rim that stays nearer than the one inside (the moving edges reach back to it from
     // the first step out) and that is as solid counts.
