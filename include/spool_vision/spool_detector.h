@@ -215,19 +215,25 @@ private:
   /// kObliqueRimMinRadius), holes are searched within kObliqueBoreShift of its size of its centre
   /// (a circle the Hough search fitted around an oblique flange and its back flange's silhouette is
   /// that far off the bore) at 0.5-1.2 the size the candidate gives; about the best kObliqueHoles
-  /// whose rim is in the frame (kMinHoleVisibleFraction) and whose disc shows (bore_contrast), the
-  /// rim is searched (RimPoseSearch) from kObliqueNearest to kObliqueFarthest of
+  /// whose rim is in the frame (kMinHoleVisibleFraction), at least kMinKnownSizeRadius, and whose
+  /// disc shows (bore_contrast), the rim is searched (RimPoseSearch) from kObliqueNearest to kObliqueFarthest of
   /// the depth the hole's size gives (within distance_min..distance_max). The first rim with
-  /// kObliqueSpoolSupport whose bore is at the puller's level and counts on it (holeCountsOn) is the spool: `result`
-  /// (undistorted px, its rim in oblique_rim_) and true.
+  /// kObliqueSpoolSupport whose bore is at the puller's level and agrees with it (boreAgreesWith), on a rim cut by the
+  /// border (cutByBorder) only with a hole rim of cut_flange_hole_score (a disc alone there was a label's print on a
+  /// neighbour), is the spool: `result` (undistorted px, its rim in oblique_rim_) and true.
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const HoughSearch& hole_search, SpoolDetection& result);
+  /// Whether `hole`'s size (its vertical semi-axis) is within kObliqueBoreAgreement of what the
+  /// flange rim `rim` gives its bore: a rim about a bore is the flange only where it agrees with the
+  /// bore's own size (a rib ring's hole taken with the flange outside it does not).
+  bool boreAgreesWith(const Circle& hole, const Circle& rim) const;
   /// rim_ for a rim RimPoseSearch found: the frame's edges on it (gatherRim()) where there are
   /// kMinGatheredRim, else the search's moving edges.
   void takeObliqueRim();
   /// A whole-frame result with a hole rim, measured again about its bore (RimPoseSearch) when its
   /// own pose's rim, measured by moving edges, has under kObliqueRimSupport of support: the
   /// search's rim replaces the flange and its edges the rim when it is supported by at least
-  /// kObliqueRimMargin more, and the pose is measured again on it. `result` is in undistorted px.
+  /// kObliqueRimMargin more (and kObliqueRimMinSupport) and agrees with the hole's size
+  /// (boreAgreesWith), and the pose is measured again on it. `result` is in undistorted px.
   void measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                          SpoolDetection& result);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
@@ -267,6 +273,7 @@ private:
   static constexpr double kObliqueBoreFarthest = 1.25;
   static constexpr double kObliqueSpoolSupport = 0.75;
   static constexpr std::size_t kMinGatheredRim = 60;
+  static constexpr double kObliqueBoreAgreement = 0.2;
 
   /// Below this fraction of its rim in the frame a flange fit is often a neighbour's back flange
   /// or its joint silhouette with the front one, centred anywhere on that neighbour's face

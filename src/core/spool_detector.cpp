@@ -316,12 +316,19 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
   if (own >= kObliqueRimSupport || rim_pose_search_.samplesInFrame() < kObliqueRimMinSamples ||
       !rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
                                kObliqueFarthest * result.position.z, search, oblique_rim_) ||
-      oblique_rim_.support < std::max(own + kObliqueRimMargin, kObliqueRimMinSupport))
+      oblique_rim_.support < std::max(own + kObliqueRimMargin, kObliqueRimMinSupport) ||
+      !boreAgreesWith(result.hole, oblique_rim_.rim))
     return;
   result.flange = oblique_rim_.rim;
   gatherRim(result, params_.hough.flange_polarity);
   takeObliqueRim();
   geometry.measure(result, rim_);
+}
+
+bool SpoolDetector::boreAgreesWith(const Circle& hole, const Circle& rim) const
+{
+  const double seen = hole.r_vertical > 0.0 ? hole.r_vertical : hole.r;
+  return std::abs(seen / matcher_.holeRadius(rim) - 1.0) <= kObliqueBoreAgreement;
 }
 
 void SpoolDetector::takeObliqueRim()
@@ -477,7 +484,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       // A bore whose whole rim is in the frame and which shows as a disc (a ring of the bore's
       // size on a neighbour's face cut by the border, or on a plate, is no spool).
       const Circle hole = holes_[h];
-      if (hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
+      if (hole.r < kMinKnownSizeRadius || hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
           boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
         continue;
       ++searched;
@@ -489,7 +496,8 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
                                    std::max(gp.distance_min, kObliqueBoreNearest * depth),
                                    std::min(gp.distance_max, kObliqueBoreFarthest * depth), reach, oblique_rim_) ||
           oblique_rim_.support < kObliqueSpoolSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
-          !holeCountsOn(SpoolMatch{oblique_rim_.rim, hole}))
+          (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
+          !boreAgreesWith(hole, oblique_rim_.rim))
         continue;
       takeSpool(oblique_rim_.rim, hole, result);
       measureBoreAtKnownSize(result);
