@@ -29,10 +29,15 @@ cv::Point fixedPoint(double x, double y)
   return cv::Point(static_cast<int>(std::lround(x * kScale)), static_cast<int>(std::lround(y * kScale)));
 }
 
+// The rim as measured: an axis-aligned ellipse where the fit gave both semi-axes (a flange seen off
+// its axis is narrower than it is high), else the circle.
 void drawCircle(cv::Mat& bgr, const Circle& c, const cv::Scalar& color, int thickness)
 {
-  cv::circle(bgr, fixedPoint(c.x, c.y), static_cast<int>(std::lround(c.r * kScale)), color, thickness, cv::LINE_AA,
-             kShift);
+  const double semi_x = c.r_horizontal > 0.0 ? c.r_horizontal : c.r;
+  const double semi_y = c.r_vertical > 0.0 ? c.r_vertical : c.r;
+  cv::ellipse(bgr, fixedPoint(c.x, c.y),
+              cv::Size(static_cast<int>(std::lround(semi_x * kScale)), static_cast<int>(std::lround(semi_y * kScale))),
+              0.0, 0.0, 360.0, color, thickness, cv::LINE_AA, kShift);
 }
 
 // Text with a dark outline stays readable on the black flange and on a bright background.

@@ -47,6 +47,19 @@ TEST(Overlay, DrawsFlangeHoleAndReferenceInTheThesisColours)
   EXPECT_FALSE(hasColour(out, {100, 400}, {0, 0, 255}));  // nothing drawn elsewhere
 }
 
+TEST(Overlay, DrawsAnObliqueFlangeAsTheEllipseMeasured)
+{
+  // A flange seen 30 deg off its axis: 130 px wide, 150 px high about (320, 300).
+  SpoolDetection d = detection();
+  d.flange.r_vertical = 150.0;
+  d.flange.r_horizontal = 130.0;
+  d.flange.r = 140.0;
+  const cv::Mat out = renderOverlay(cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)), PixelFormat::kMono8, d);
+  EXPECT_TRUE(hasColour(out, {320, 150}, {0, 0, 255}));   // top
+  EXPECT_TRUE(hasColour(out, {450, 300}, {0, 0, 255}));   // side
+  EXPECT_FALSE(hasColour(out, {460, 300}, {0, 0, 255}));  // not the mean circle's side
+}
+
 TEST(Overlay, NeverWritesItsInput)
 {
   cv::Mat bgr(120, 160, CV_8UC3, cv::Scalar(10, 20, 30));
