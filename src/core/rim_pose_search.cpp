@@ -101,8 +101,10 @@ void RimPoseSearch::outermost(const cv::Mat& image, PixelFormat format, const Sp
   const cv::Point3d ray = best.position / best.position.z;
   const cv::Vec3d axis = best.axis;
   const double inner = best.position.z;
-  for (double depth = inner / kDepthStep; depth >= inner / kInnerRing; depth /= kDepthStep)
+  const int steps = static_cast<int>(std::floor(std::log(kInnerRing) / std::log(kDepthStep)));
+  for (int step = 1; step <= steps; ++step)
   {
+    const double depth = inner / std::pow(kDepthStep, step);
     // Only a rim that stays nearer than the one inside (the moving edges reach back to it from
     // the first step out) and that is as solid counts.
     if (measure(image, format, geometry, bore, ray * depth, axis, search, candidate_) &&

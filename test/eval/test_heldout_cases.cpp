@@ -126,6 +126,18 @@ void expectTarget(const std::string& name, const cv::Mat& image, double hole_tol
 class HeldoutCase : public ::testing::TestWithParam<const char*>
 {
 };
+// heldout_v2's frames (640x480 through a C270 lens), the detector of config/default.yaml with
+// their camera.
+const std::string kCasesV2 = std::string(SPOOL_TEST_DATA_DIR) + "/heldout_v2/";
+
+spool_vision::SpoolDetector heldoutV2Detector()
+{
+  DetectorParams params;
+  spool_vision::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/default.yaml", params);
+  spool_vision::SpoolDetector detector(params);
+  detector.setCamera(spool_vision::loadCameraInfoYaml(kCasesV2 + "camera_640.yaml"));
+  return detector;
+}
 }  // namespace
 
 // The bore's front rim, found whatever its polarity: a dark bore in a grey face (pos_124,
@@ -189,19 +201,18 @@ struct SequenceFrame
 
 std::vector<SequenceFrame> followSeq2(int full_search_interval)
 {
-  const std::string cases = std::string(SPOOL_TEST_DATA_DIR) + "/heldout_v2/";
   DetectorParams params;
   spool_vision::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/default.yaml", params);
   params.tracker.full_search_interval = full_search_interval;
   spool_vision::TrackingDetector tracking(params);
-  tracking.detector().setCamera(spool_vision::loadCameraInfoYaml(cases + "camera_640.yaml"));
-  std::ifstream truth(cases + "truth.jsonl");
+  tracking.detector().setCamera(spool_vision::loadCameraInfoYaml(kCasesV2 + "camera_640.yaml"));
+  std::ifstream truth(kCasesV2 + "truth.jsonl");
   std::vector<SequenceFrame> frames;
   for (std::string line; std::getline(truth, line);)
   {
     const YAML::Node frame = YAML::Load(line);
     const std::string name = frame["name"].as<std::string>();
-    const cv::Mat image = cv::imread(cases + name + ".png", cv::IMREAD_COLOR);
+    const cv::Mat image = cv::imread(kCasesV2 + name + ".png", cv::IMREAD_COLOR);
     EXPECT_FALSE(image.empty()) << name;
     if (image.empty())
       break;
@@ -269,19 +280,15 @@ TEST(HeldoutCase, ARibRingIsNotTheFlange)
   // overfills the frame (cut at the bottom) and a raised rib ring 0.6 of its size is a whole,
   // concentric circle about the bore. It was reported as the flange (1.00 and 0.84 m); the
   // bore, measured at its own size, is 1.6 times what the ring allows.
-  const std::string cases = std::string(SPOOL_TEST_DATA_DIR) + "/heldout_v2/";
-  DetectorParams params;
-  spool_vision::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/default.yaml", params);
-  spool_vision::SpoolDetector detector(params);
-  detector.setCamera(spool_vision::loadCameraInfoYaml(cases + "camera_640.yaml"));
-  std::ifstream truth(cases + "rib_frames.jsonl");
+  spool_vision::SpoolDetector detector = heldoutV2Detector();
+  std::ifstream truth(kCasesV2 + "rib_frames.jsonl");
   int frames = 0;
   for (std::string line; std::getline(truth, line); ++frames)
   {
     const YAML::Node frame = YAML::Load(line);
     const std::string name = frame["name"].as<std::string>();
     SCOPED_TRACE(name);
-    const cv::Mat image = cv::imread(cases + name + ".png", cv::IMREAD_COLOR);
+    const cv::Mat image = cv::imread(kCasesV2 + name + ".png", cv::IMREAD_COLOR);
     ASSERT_FALSE(image.empty());
     const spool_vision::SpoolDetection d = detector.detect(image, PixelFormat::kBgr8);
     const YAML::Node target = frame["target"];
@@ -300,17 +307,13 @@ TEST(HeldoutCase, AnObliqueFlangeIsNotItsJointSilhouette)
   // is an ellipse 0.85 as wide as it is high, and the back flange shows beside it. The Hough
   // search's best circle (r 191, its centre 44 px off) was reported: 0.73 m, the axis 39 deg the
   // wrong way. The rim measured about the bore over turned poses (RimPoseSearch) is the flange.
-  const std::string cases = std::string(SPOOL_TEST_DATA_DIR) + "/heldout_v2/";
-  DetectorParams params;
-  spool_vision::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/default.yaml", params);
-  spool_vision::SpoolDetector detector(params);
-  detector.setCamera(spool_vision::loadCameraInfoYaml(cases + "camera_640.yaml"));
-  std::ifstream truth(cases + "oblique_frames.jsonl");
+  spool_vision::SpoolDetector detector = heldoutV2Detector();
+  std::ifstream truth(kCasesV2 + "oblique_frames.jsonl");
   std::string line;
   ASSERT_TRUE(std::getline(truth, line));
   const YAML::Node frame = YAML::Load(line);
   const YAML::Node target = frame["target"];
-  const cv::Mat image = cv::imread(cases + frame["name"].as<std::string>() + ".png", cv::IMREAD_COLOR);
+  const cv::Mat image = cv::imread(kCasesV2 + frame["name"].as<std::string>() + ".png", cv::IMREAD_COLOR);
   ASSERT_FALSE(image.empty());
   const spool_vision::SpoolDetection d = detector.detect(image, PixelFormat::kBgr8);
   ASSERT_TRUE(d.hole_detected);
