@@ -210,6 +210,9 @@ private:
   /// How MovingEdges searches a predicted rim: `reach` px either way, either polarity, half of
   /// edge_threshold, smoothed as the detector's filter smooths.
   RimSearch rimSearch(double reach) const;
+  /// rimSearch() for RimPoseSearch about a flange of `flange_px` (its vertical semi-axis, px):
+  /// kObliqueRimReach of it, at least kObliqueRimReachPx.
+  RimSearch obliqueRimSearch(double flange_px) const;
   /// Whole frame, no spool with a hole rim found: a spool seen far off its axis, found about its bore.
   /// About each of the first kObliqueCandidates flange candidates nearest the reference (at least
   /// kObliqueRimMinRadius), holes are searched within kObliqueBoreShift of its size of its centre

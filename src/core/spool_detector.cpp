@@ -183,8 +183,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                      params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
                      !(cost <= result.flange.r);
   const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
-  const bool oblique = !either && !along_rim && (!window || window->whole_frame) && !result.hole_detected &&
-                       obliqueSpool(image, format, hole_search, result);
+  // The whole frame's checks of the chosen spool run in a window that stands for the whole frame.
+  const bool whole_frame = !window || window->whole_frame;
+  const bool oblique =
+      !either && !along_rim && whole_frame && !result.hole_detected && obliqueSpool(image, format, hole_search, result);
   if (along_rim)
   {
     // The moving edges on the rim are its edges, while the flange is theirs.
@@ -200,13 +202,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       takeObliqueRim();
   }
   geometry.measure(result, rim_);
-  if ((!window || window->whole_frame) && !along_rim && result.hole_detected)
+  if (whole_frame && !along_rim && result.hole_detected)
     measureObliqueRim(image, format, geometry, result);
   measureBoreParallax(geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
   Circle bore;
-  const bool inner_ring =
-      (!window || window->whole_frame) && result.hole_detected && ownBore(result, hole_search, bore);
+  const bool inner_ring = whole_frame && result.hole_detected && ownBore(result, hole_search, bore);
   toFramePixels(geometry.camera(), result);
   if (inner_ring)
   {
@@ -305,8 +306,7 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
 {
   if (!(result.position.z > 0.0) || result.flange.r_vertical < kObliqueRimMinRadius)
     return;
-  // The poses tried are a few % apart in size and 10 deg in axis: the reach covers half of that.
-  const RimSearch search = rimSearch(std::max(kObliqueRimReachPx, kObliqueRimReach * result.flange.r_vertical));
+  const RimSearch search = obliqueRimSearch(result.flange.r_vertical);
   const cv::Point2d bore(result.hole.x, result.hole.y);
   const double own =
       rim_pose_search_.measure(image, format, geometry, bore, result.position, result.axis, search, own_rim_)
@@ -323,6 +323,12 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
   gatherRim(result, params_.hough.flange_polarity);
   takeObliqueRim();
   geometry.measure(result, rim_);
+}
+
+RimSearch SpoolDetector::obliqueRimSearch(double flange_px) const
+{
+  // The poses tried are a few % apart in size and 10 deg in axis: the reach covers half of that.
+  return rimSearch(std::max(kObliqueRimReachPx, kObliqueRimReach * flange_px));
 }
 
 bool SpoolDetector::boreAgreesWith(const Circle& hole, const Circle& rim) const
@@ -459,7 +465,6 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
     return false;
   const SpoolGeometry& geometry = *geometry_;
   const GeometryParams& gp = params_.geometry;
-  const RimSearch search = rimSearch(0.0);
   int tried = 0;
   for (const std::size_t i : order_)
   {
@@ -488,13 +493,12 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
           boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
         continue;
       ++searched;
-      const double depth = geometry.camera().fy * gp.hole_diameter / (2.0 * hole.r);
-      RimSearch reach = search;
-      reach.reach =
-          std::max(kObliqueRimReachPx, kObliqueRimReach * geometry.camera().fy * 0.5 * gp.flange_diameter / depth);
+      // The depth its size gives, and the flange's size there.
+      const double depth = geometry.depthFromDiameter(2.0 * hole.r * gp.flange_diameter / gp.hole_diameter);
+      const RimSearch search = obliqueRimSearch(hole.r * gp.flange_diameter / gp.hole_diameter);
       if (!rim_pose_search_.search(image, format, geometry, {hole.x, hole.y},
                                    std::max(gp.distance_min, kObliqueBoreNearest * depth),
-                                   std::min(gp.distance_max, kObliqueBoreFarthest * depth), reach, oblique_rim_) ||
+                                   std::min(gp.distance_max, kObliqueBoreFarthest * depth), search, oblique_rim_) ||
           oblique_rim_.support < kObliqueSpoolSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
           (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
           !boreAgreesWith(hole, oblique_rim_.rim))
@@ -505,6 +509,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       return true;
     }
   }
+  holes_.clear();  // no target: its hole candidates are none
   return false;
 }
 
