@@ -215,26 +215,34 @@ void setPoseBars(QualityBars& bars)
 
 QualityBars QualityBars::forDefault(cv::Size size)
 {
-  // DESIGN.md §7 for every resolution the webcam streams.
+  // DESIGN.md §7 and issue 28's "done when", for every resolution the webcam streams.
   QualityBars bars;
   bars.flange_found_min = 0.99;
   bars.false_spool_max = 0.01;
+  bars.wrong_target_max = 0.01;
+  bars.depth_over_10_max = 0.0;
   bars.worst_ratio_max = 3.0;
   bars.faster_than_baseline = true;
-  if (size == cv::Size(640, 480))
+  if (size.width >= 640)
   {
     bars.hole_found_min = 0.97;
     bars.hole_dark_found_min = 0.90;
-    bars.wrong_target_max = 0.01;
-    bars.time_median_max_ms = 4.0;
-    setPoseBars(bars);
   }
   else if (size == cv::Size(160, 120) || size == cv::Size(320, 240))
   {
     bars.hole_found_min = 0.90;
     if (size.width == 160)
-      bars.time_median_max_ms = 0.5;
+      bars.hole_dark_found_min = 0.90;
   }
+  if (size == cv::Size(640, 480))
+    setPoseBars(bars);
+  // Issue 28: one core, full-frame search.
+  if (size == cv::Size(160, 120))
+    bars.time_median_max_ms = 0.25;
+  else if (size == cv::Size(640, 480))
+    bars.time_median_max_ms = 2.0;
+  else if (size == cv::Size(1280, 720))
+    bars.time_median_max_ms = 8.0;
   return bars;
 }
 

@@ -78,6 +78,17 @@ BarRow::Cell valueCell(double value, double limit, const std::function<std::stri
   return c;
 }
 
+// A count bar: at most `max` hits, shown as "hits of frames".
+BarRow::Cell countCell(const Rate& r, double max)
+{
+  BarRow::Cell c;
+  c.applies = std::isfinite(max);
+  c.limit = c.applies ? "≤ " + fixed(max, 0) : "-";
+  c.measured = std::to_string(r.hits) + " of " + std::to_string(r.frames);
+  c.pass = r.hits <= max;
+  return c;
+}
+
 // A spread's statistic: where it has no value, whether there were no frames or the detector left
 // the quantity unmeasured (NaN).
 BarRow::Cell spreadCell(const Spread& spread, double value, double limit,
@@ -320,6 +331,9 @@ std::vector<BarRow> headlineRows(const EvaluationResult& result, size_t group)
       { return rateCell(r.metrics.false_spool, b.false_spool_max, false); });
   add("wrong target (neighbours in view)", [](const QualityBars& b, const GroupResult& r)
       { return rateCell(r.metrics.wrong_target, b.wrong_target_max, false); });
+  add("depth more than " + percent(kAbsurdDepthError, 0) + " off the spool under the flange (detections)",
+      [](const QualityBars& b, const GroupResult& r)
+      { return countCell(r.metrics.depth_over_10_percent, b.depth_over_10_max); });
   add("distance (depth) error, median", [&](const QualityBars& b, const GroupResult& r)
       { return valueCell(r.metrics.distance_error.median, b.distance_median_max, relative); });
   add("distance (depth) error, 95th percentile", [&](const QualityBars& b, const GroupResult& r)
@@ -388,16 +402,7 @@ std::vector<BarRow> poseRows(const EvaluationResult& result, size_t group)
         return spreadCell(m.axis_angle_error_deg, m.axis_angle_error_deg.p95, limit(b.axis_angle_p95_max_deg), degrees);
       });
   add("aligned where the puller would touch the bore wall (frames)",
-      [&](const QualityBars& b, const Metrics& m)
-      {
-        BarRow::Cell c;
-        const double max = limit(b.unsafe_aligned_max);
-        c.applies = std::isfinite(max);
-        c.limit = c.applies ? "≤ " + fixed(max, 0) : "-";
-        c.measured = std::to_string(m.unsafe_aligned.hits) + " of " + std::to_string(m.unsafe_aligned.frames);
-        c.pass = m.unsafe_aligned.hits <= max;
-        return c;
-      });
+      [&](const QualityBars& b, const Metrics& m) { return countCell(m.unsafe_aligned, limit(b.unsafe_aligned_max)); });
   add("aligned recall (truth aligned: puller clears, 50-60 cm)", [&](const QualityBars& b, const Metrics& m)
       { return rateCell(m.aligned_recall, limit(b.aligned_recall_min), true); });
   add("aligned recall where the puller clears the wall by ≥ " + fixed(kClearRecallSlack * 1000.0, 2) + " mm",

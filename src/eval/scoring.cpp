@@ -64,6 +64,22 @@ std::vector<SpoolTruth> renderedSpools(const GroundTruth& truth)
   return spools;
 }
 
+std::optional<size_t> spoolUnder(const std::vector<SpoolTruth>& spools, const Circle& found)
+{
+  std::optional<size_t> under;
+  double nearest = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < spools.size(); ++i)
+  {
+    const double d = std::hypot(found.x - spools[i].flange.x, found.y - spools[i].flange.y);
+    if (d <= spools[i].flange.r && d < nearest)
+    {
+      nearest = d;
+      under = i;
+    }
+  }
+  return under;
+}
+
 std::optional<SpoolTruth> targetSpool(const GroundTruth& truth)
 {
   const std::vector<SpoolTruth> spools = renderedSpools(truth);
@@ -152,6 +168,12 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
     s.hole_judged = true;
     return s;
   }
+  if (s.detected)
+  {
+    const std::optional<size_t> under = spoolUnder(spools, detection.flange);
+    s.any_depth_error = under ? (detection.distance - spools[*under].distance) / spools[*under].distance
+                              : std::numeric_limits<double>::infinity();
+  }
   const SpoolTruth& target = spools[*target_index];
   const SpoolTruth& judged = spools[*judged_index];
   s.hole_judged = judged.in_slot;
@@ -213,6 +235,7 @@ Metrics summarize(const std::vector<FrameScore>& scores)
     m.false_spool.add(!s.has_target, s.detected);
     m.wrong_target.add(s.has_target && s.neighbours_in_view, s.detected && !s.correct);
     m.false_hole.add(s.hole_reported && s.hole_judged, !s.hole_correct);
+    m.depth_over_10_percent.add(s.detected && s.has_target, !(std::abs(s.any_depth_error) <= kAbsurdDepthError));
     if (s.flange_eligible)
     {
       m.missed += s.detected ? 0 : 1;

@@ -23,6 +23,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kEps = 1e-9;
 constexpr int kSuperSamples = 4;  // per axis, on pixels where surfaces meet
 constexpr int kRimSamples = 720;
+// m: prints leave the wall plain this far about the target's axis, so that what shows through its
+// bore is the wall the truth's lit bore assumes (the see-through wanders this far at 40 deg).
+constexpr double kPlainWallRadius = 0.12;
 // Moulded ribs on the flange face: radii of their crests (m), crest half width and flank width.
 constexpr std::array<double, 4> kRibRadii = {0.05, 0.08, 0.115, 0.15};
 constexpr double kRibHalfWidth = 0.002;
@@ -482,6 +485,9 @@ public:
     : p_(params), camera_(camera), geometry_(sceneGeometry(params))
   {
     setupLights();
+    prints_.reserve(params.wall_prints.size());
+    for (const WallPrint& print : params.wall_prints)
+      prints_.emplace_back(print);
   }
 
   // Nearest hit along o + t d (d need not be unit length); o is the camera centre.
@@ -501,7 +507,7 @@ public:
     switch (hit.material)
     {
       case Material::kWall:
-        return wallRadiance(pt, hit, sub);
+        return wallRadiance(pt, hit, footprint, sub);
       case Material::kBoard:
       {
         const double grain = 1.0 + 0.08 * std::sin(40.0 * pt.x() + 3.0 * std::sin(13.0 * pt.z()));
@@ -533,16 +539,25 @@ public:
   }
 
 private:
-  // The wall behind the shelf: a faint pattern, shaded under and over the boards.
-  Vec3 wallRadiance(const Vec3& pt, const Hit& hit, int& sub) const
+  // The wall behind the shelf: a faint pattern or the topmost print, shaded under and over the
+  // boards. A print's border is a surface edge (anti-aliased); its inside filters itself.
+  Vec3 wallRadiance(const Vec3& pt, const Hit& hit, double footprint, int& sub) const
   {
-    const double pattern = 1.0 + 0.05 * std::sin(7.1 * pt.x() + 0.3) * std::sin(5.3 * pt.y());
     double shadow = 1.0;
     if (pt.y() < geometry_.lower_board_bottom)
       shadow = 0.45;  // inside the compartment below: the board shades it
     else if (pt.y() > geometry_.upper_board_bottom)
       shadow = 0.6;
     sub = shadow < 1.0 ? 1 : 0;
+    const bool behind_bore = std::hypot(pt.x(), pt.y() - SpoolRenderer::kHoleHeight) < kPlainWallRadius;
+    const auto print = std::find_if(prints_.rbegin(), prints_.rend(),
+                                    [&pt](const PrintTexture& t) { return t.contains(pt.x(), pt.y()); });
+    if (!behind_bore && print != prints_.rend())
+    {
+      sub += 2;
+      return toVec(print->reflectance(pt.x(), pt.y(), footprint)) * shadow * diffuse(hit.normal);
+    }
+    const double pattern = 1.0 + 0.05 * std::sin(7.1 * pt.x() + 0.3) * std::sin(5.3 * pt.y());
     return toVec(p_.wall_colour) * pattern * shadow * diffuse(hit.normal);
   }
 
@@ -720,6 +735,7 @@ private:
   const SceneParams& p_;
   CameraFrame camera_;
   SceneGeometry geometry_;
+  std::vector<PrintTexture> prints_;
   std::array<double, 3> lamp_weight_{};
   double light_scale_ = 1.0;
   double front_light_ = 0.0;  // bore: light entering the front opening
@@ -1522,6 +1538,37 @@ void drawClutter(cv::RNG& rng, SceneParams& s)
   }
 }
 
+// The hard set's prints (issue 28's textured real scenes): a mural over the whole wall on half
+// the scenes, and 1-5 prints of 20-100 x 15-80 cm on three in four.
+void drawPrints(cv::RNG& rng, SceneParams& s)
+{
+  auto kind = [&rng] { return static_cast<PrintKind>(rng.uniform(0, 5)); };
+  if (chance(rng, 0.5))
+  {
+    WallPrint mural;
+    mural.kind = kind();
+    mural.x = rng.uniform(-0.3, 0.3);
+    mural.y = SpoolRenderer::kHoleHeight;
+    mural.width = 2.6;
+    mural.height = 1.4;
+    mural.seed = rng.uniform(1, 1 << 30);
+    s.wall_prints.push_back(mural);
+  }
+  if (!chance(rng, 0.75))
+    return;
+  for (int i = rng.uniform(1, 6); i > 0; --i)
+  {
+    WallPrint print;
+    print.kind = kind();
+    print.width = rng.uniform(0.2, 1.0);
+    print.height = rng.uniform(0.15, 0.8);
+    print.x = rng.uniform(-1.0, 1.0);
+    print.y = SpoolRenderer::kHoleHeight + rng.uniform(-0.6, 0.6);
+    print.seed = rng.uniform(1, 1 << 30);
+    s.wall_prints.push_back(print);
+  }
+}
+
 }  // namespace
 
 SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
@@ -1535,6 +1582,9 @@ SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
   // The puller rod reaches 12-30 cm ahead of the camera (the set may shorten it to keep the
   // hole clear).
   s.puller_rod_length = chance(rng, 0.8) ? rng.uniform(0.12, 0.3) : 0.0;
+  // Their own stream: the draws above give the scenes they gave before the prints.
+  cv::RNG print_rng(mixSeed(seed, 4));
+  drawPrints(print_rng, s);
   return s;
 }
 

@@ -63,7 +63,15 @@ std::string circleJson(bool found, const spool_vision::Circle& c)
 {
   if (!found)
     return "null";
-  return JsonObject().add("x", c.x, 2).add("y", c.y, 2).add("r", c.r, 2).str();
+  return JsonObject()
+      .add("x", c.x, 2)
+      .add("y", c.y, 2)
+      .add("r", c.r, 2)
+      .add("r_vertical", c.r_vertical, 2)
+      .add("r_horizontal", c.r_horizontal > 0.0 ? c.r_horizontal : c.r, 2)
+      .add("score", c.score, 3)
+      .add("visible_fraction", c.visible_fraction, 3)
+      .str();
 }
 
 // Expands folders into their images (sorted); plain paths stay as given, even if missing, so

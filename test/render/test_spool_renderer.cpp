@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -782,4 +783,122 @@ TEST(SpoolRenderer, PrincipalPointOffTheImageCentre)
   EXPECT_NEAR(b.truth.hole->x - a.truth.hole->x, 7.0, 1e-9);
   EXPECT_NEAR(b.truth.flange->y - a.truth.flange->y, -5.0, 1e-9);
   EXPECT_NEAR(b.truth.reference.x, shifted.cx, 1e-12);
+}
+
+TEST(WallPrint, EachKindIsDeterministicBusyAndFiltersToItsOwnMean)
+{
+  for (int k = 0; k < 5; ++k)
+  {
+    sv::WallPrint print;
+    print.kind = static_cast<sv::PrintKind>(k);
+    print.x = 0.3;
+    print.y = 1.2;
+    print.width = 0.6;
+    print.height = 0.4;
+    print.seed = 17;
+    const sv::PrintTexture texture(print);
+    EXPECT_TRUE(texture.contains(0.01, 1.01));
+    EXPECT_FALSE(texture.contains(-0.01, 1.2));
+    EXPECT_FALSE(texture.contains(0.3, 1.41));
+
+    // Sampled at the finest level on a 1 cm grid: paper-to-ink reflectances and many edges.
+    double sum = 0.0;
+    int steps = 0;
+    int samples = 0;
+    double lo = 1.0;
+    double hi = 0.0;
+    double previous = -1.0;
+    for (double y = 1.005; y < 1.4; y += 0.01)
+      for (double x = 0.005; x < 0.6; x += 0.01)
+      {
+        const cv::Vec3d r = texture.reflectance(x, y, 0.0);
+        const double g = (r[0] + r[1] + r[2]) / 3.0;
+        ASSERT_GE(g, 0.03 - 1e-6);
+        ASSERT_LE(g, 0.85 + 1e-6);
+        lo = std::min(lo, g);
+        hi = std::max(hi, g);
+        steps += previous >= 0.0 && std::abs(g - previous) > 0.05 ? 1 : 0;
+        previous = g;
+        sum += g;
+        ++samples;
+      }
+    EXPECT_GT(hi - lo, 0.3) << k;
+    EXPECT_GT(steps, 30) << k;  // far busier than the plain wall's 5% pattern
+    // A pixel 16 cm wide on the wall sees the print's mean, not one texel of it.
+    const cv::Vec3d coarse = texture.reflectance(0.3, 1.2, 0.16);
+    EXPECT_NEAR((coarse[0] + coarse[1] + coarse[2]) / 3.0, sum / samples, 0.12) << k;
+    // The same seed draws the same print; another seed another.
+    EXPECT_EQ(sv::PrintTexture(print).reflectance(0.123, 1.234, 0.0), texture.reflectance(0.123, 1.234, 0.0));
+    print.seed = 18;
+    const sv::PrintTexture other(print);
+    double differ = 0.0;
+    for (double x = 0.005; x < 0.6; x += 0.01)
+      differ += cv::norm(other.reflectance(x, 1.2, 0.0) - texture.reflectance(x, 1.2, 0.0));
+    EXPECT_GT(differ, 0.1) << k;
+  }
+}
+
+TEST(WallPrint, IsSeenOnTheWallWhereItHangsAndChangesNothingElse)
+{
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(320, 240));
+  sv::SceneParams plain = cleanScene();
+  sv::SceneParams printed = plain;
+  sv::WallPrint print;
+  print.kind = sv::PrintKind::kCartons;
+  print.x = 0.45;  // right of the flange, on the wall between the boards
+  print.y = 1.0;
+  print.width = 0.3;
+  print.height = 0.3;
+  printed.wall_prints.push_back(print);
+  const sv::CameraPose p = pose(0.9);
+  const sv::RenderedFrame a = renderer.render(plain, p);
+  const sv::RenderedFrame b = renderer.render(printed, p);
+  EXPECT_EQ(sv::groundTruthJson(a.truth).dump(), sv::groundTruthJson(b.truth).dump());
+  cv::Mat diff;
+  cv::absdiff(a.image, b.image, diff);
+  cv::cvtColor(diff, diff, cv::COLOR_BGR2GRAY);
+  const cv::Rect changed = cv::boundingRect(diff > 2);
+  ASSERT_GT(changed.area(), 0);
+  // Where the print's corners project: the wall is 0.3 m behind the face (bore_length + wall_gap).
+  const sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(320, 240);
+  const double z = p.distance + plain.bore_length + plain.wall_gap;
+  const double left = k.cx + k.fx * (print.x - 0.5 * print.width) / z;
+  const double right = k.cx + k.fx * (print.x + 0.5 * print.width) / z;
+  EXPECT_GE(changed.x, left - 2.0);
+  EXPECT_LE(changed.x + changed.width, right + 2.0);
+  EXPECT_GT(changed.width, 0.5 * (right - left));  // the board hides none of it, the spool some
+
+  // A mural over the whole wall: what shows through the bore is still the plain wall.
+  print.kind = sv::PrintKind::kPhotograph;
+  print.x = 0.0;
+  print.width = 3.0;
+  print.height = 1.5;
+  printed.wall_prints = {print};
+  const cv::Mat mural = renderer.render(printed, p).image;
+  const cv::Point hole(cvRound(a.truth.hole->x), cvRound(a.truth.hole->y));
+  ASSERT_TRUE(a.truth.bore_visible);
+  EXPECT_EQ(mural.at<cv::Vec3b>(hole), a.image.at<cv::Vec3b>(hole));
+  EXPECT_GT(cv::norm(mural, a.image, cv::NORM_L1) / (mural.total() * mural.channels()), 2.0);
+}
+
+TEST(WallPrint, HardScenesHaveMuralsOnHalfAndPrintsOnThreeInFour)
+{
+  int murals = 0;
+  int printed = 0;
+  std::array<int, 5> kinds{};
+  for (std::uint64_t seed = 1; seed <= 400; ++seed)
+  {
+    const sv::SceneParams s = sv::randomHardScene(sv::SceneKind::kSpool, seed);
+    const bool mural = !s.wall_prints.empty() && s.wall_prints.front().width > 2.0;
+    murals += mural ? 1 : 0;
+    printed += s.wall_prints.size() > (mural ? 1u : 0u) ? 1 : 0;
+    for (const sv::WallPrint& print : s.wall_prints)
+      ++kinds[static_cast<std::size_t>(print.kind)];
+    // The main set keeps its plain walls.
+    EXPECT_TRUE(sv::randomScene(sv::SceneKind::kSpool, seed).wall_prints.empty());
+  }
+  EXPECT_NEAR(murals / 400.0, 0.5, 0.07);
+  EXPECT_NEAR(printed / 400.0, 0.75, 0.06);
+  for (int n : kinds)
+    EXPECT_GT(n, 60);
 }

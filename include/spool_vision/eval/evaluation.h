@@ -145,6 +145,10 @@ struct FrameScore
   double hole_radius_error = kNaN;  ///< px, |found - true|, same frames
   double distance_error = kNaN;     ///< (measured - true) / true of the depth, correct detections only
   double yaw_error = kNaN;          ///< rad, measured - true, correct detections only
+  /// (measured - true) / true of the depth of any detection on a frame with a target, against
+  /// the spool under the found flange's centre (spoolUnder); +inf on no spool. Issue 28: a rib
+  /// ring taken as the flange is not "correct", yet its depth is what a controller acts on.
+  double any_depth_error = kNaN;
   // The slot's spool in 3D (its truth is known), correct detections on it only.
   double true_depth = kNaN;          ///< m, its depth
   double lateral_error = kNaN;       ///< m, lateral_offset measured - true
@@ -157,6 +161,14 @@ struct FrameScore
 };
 
 FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection);
+
+/// A published depth further than this from the spool it lies on is one no controller may act on
+/// (issue 28: none anywhere).
+constexpr double kAbsurdDepthError = 0.10;
+
+/// The rendered spool whose projected rim contains `found`'s centre, the one with the nearest
+/// centre where several do (a rib ring or a bore lies inside its own flange); nullopt on none.
+std::optional<size_t> spoolUnder(const std::vector<SpoolTruth>& spools, const Circle& found);
 
 /// hits out of frames; value() is NaN without frames.
 struct Rate
@@ -198,6 +210,8 @@ struct Metrics
   Rate false_spool;      ///< detected / frames without a spool centre in view
   Rate wrong_target;     ///< detected elsewhere than the target / frames with neighbours in view
   Rate false_hole;       ///< hole not on the bore / holes reported where the hole truth is known
+  /// |any_depth_error| > kAbsurdDepthError / detections on frames with a target
+  Rate depth_over_10_percent;
   // Where the flange-eligible frames went wrong.
   int missed = 0;
   int on_other_spool = 0;
@@ -310,6 +324,8 @@ struct QualityBars
   double lateral_p95_max_mm = kNone;  ///< at kInsertionDepthMin-kInsertionDepthMax of depth
   double axis_angle_p95_max_deg = kNone;
   double unsafe_aligned_max = kNone;  ///< frames reported aligned where the puller would touch the bore
+  /// Issue 28, every resolution: detections with a depth more than kAbsurdDepthError off (count)
+  double depth_over_10_max = kNone;
   double aligned_recall_min = kNone;  ///< of the frames where the truth is aligned
 
   /// default.yaml's bars at `size`: all of them at 640x480; at 160x120 and 320x240 flange, hole

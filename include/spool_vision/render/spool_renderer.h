@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 
 #include "spool_vision/detector_params.h"
+#include "spool_vision/render/wall_print.h"
 #include "spool_vision/types.h"
 
 namespace spool_vision
@@ -136,6 +137,9 @@ struct SceneParams
   double top_board_clearance = 0.08;        ///< m, flange top to the upper board
   cv::Vec3d wall_colour{0.70, 0.74, 0.76};  ///< BGR reflectance
   std::vector<WallMark> wall_marks;         ///< clutter on the back wall
+  /// Photograph-like prints on the back wall (later ones in front), drawn where no wall mark is
+  /// and not within 12 cm of the target's axis (its bore's see-through shows the plain wall)
+  std::vector<WallPrint> wall_prints;
   std::vector<ShelfBox> boxes;              ///< clutter on the boards beside the slot
 
   /// m, how far ahead of the camera the puller rod's tip reaches along the optical axis; the rod
