@@ -116,6 +116,15 @@ public:
   /// support, 0-1): rib rings gave 0.31 against 0.89 (closed-loop seed 1844) and 0.54-0.65 against
   /// 1.0 (seed 1918), a drawn bore of the right size 1.0 against 1.0 a pixel and a half larger.
   static constexpr double kOwnBoreMargin = 0.1;
+  /// ... unless it holds the hole inside it and is larger by this fraction of it, or this many px
+  /// where that is more: a sharp rim supports circles within its fit's band, not this far out.
+  static constexpr double kOwnBoreBand = 0.25;
+  static constexpr double kOwnBoreBandPx = 3.0;
+  /// A flange at least this wide for its height (seen within about 22 deg of its axis) has its
+  /// hole's own fit taken as the bore's size, and a tie with a circle holding it as evidence.
+  static constexpr double kNearAxisAspect = 0.93;
+  /// ... where the hole's rim scores this much (nearly whole: its size is then measured).
+  static constexpr double kSharpHoleScore = 0.8;
   /// Around a tracked rim's hole window the pixels within this many of its largest radius are
   /// preprocessed: the bore's disc contrast reads a ring out to twice its radius.
   static constexpr double kDiscReach = 2.2;
@@ -144,9 +153,12 @@ private:
   /// rim_: the edges of the result's flange rim (for SpoolGeometry::fitRimPose).
   void gatherRim(const SpoolDetection& result, Polarity polarity);
   /// Whether the result's bore, measured at its own size, says its flange is an inner ring: then
-  /// `bore` is the best circle within the flange's hole size of the hole's centre, from
-  /// kInnerRingRatio times that size up to `hole_search`'s largest, scoring at least the hole
-  /// (px, undistorted). Uses hole_edges_ and own_bores_.
+  /// `bore` is the hole itself where it measures kInnerRingRatio times the size the flange gives
+  /// it or more, else the best circle within that size of the hole's centre, from
+  /// kInnerRingRatio times that size up to `hole_search`'s largest, outscoring the hole by
+  /// kOwnBoreMargin, or scoring as well where it holds the hole inside it (these two on a flange
+  /// within kNearAxisAspect of round and a hole of kMinKnownSizeRadius or more scoring
+  /// kSharpHoleScore) (px, undistorted). Uses hole_edges_ and own_bores_.
   bool ownBore(const SpoolDetection& result, const HoughSearch& hole_search, Circle& bore);
   /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);

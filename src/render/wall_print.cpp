@@ -1,6 +1,7 @@
 #include "spool_vision/render/wall_print.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -248,24 +249,10 @@ PrintTexture::PrintTexture(const WallPrint& print) : print_(print)
                       std::max(2, static_cast<int>(std::lround(print.height / kTexel))));
   cv::Mat img(size, CV_8UC3);
   cv::RNG rng(print.seed);
-  switch (print.kind)
-  {
-    case PrintKind::kWhiteboard:
-      whiteboard(img, rng);
-      break;
-    case PrintKind::kPhotograph:
-      photograph(img, rng);
-      break;
-    case PrintKind::kCartons:
-      cartons(img, rng);
-      break;
-    case PrintKind::kRack:
-      rack(img, rng);
-      break;
-    case PrintKind::kShrinkWrap:
-      shrinkWrap(img, rng);
-      break;
-  }
+  // In PrintKind's order.
+  using Draw = void (*)(cv::Mat&, cv::RNG&);
+  constexpr std::array<Draw, 5> kDraw = {whiteboard, photograph, cartons, rack, shrinkWrap};
+  kDraw.at(static_cast<std::size_t>(print.kind))(img, rng);
   levels_.push_back(linearReflectance(img));
   while (levels_.back().cols > 2 && levels_.back().rows > 2)
   {
