@@ -232,11 +232,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       const double largest = (1.0 + kOuterRimMargin) * outer;
       if (smallest >= largest)
         break;
+      auto concentric = [&](const SpoolDetection& rim)
+      { return rim.hole_detected && std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement; };
       auto agrees = [&](const SpoolDetection& rim)
       {
-        return rim.hole_detected && rim.flange.r_vertical >= smallest &&
-               std::abs(rim.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx) &&
-               std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement;
+        return concentric(rim) && rim.flange.r_vertical >= smallest &&
+               std::abs(rim.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx);
       };
       FlangeWindow around;
       around.centre = {bore.x, bore.y};
@@ -260,13 +261,11 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       }
       // A rim that does not agree is searched above only about a bore large enough to have been
       // measured (at 160x120 a 4 px bore's size is noise: oblique seed 7 #146).
-      const bool above = agrees(rim) || (bore.r >= kMinKnownSizeRadius && rim.hole_detected &&
-                                         std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement &&
-                                         rim.flange.r_vertical > below);
-      if (!above)
+      const bool taken = agrees(rim);
+      if (!taken && !(bore.r >= kMinKnownSizeRadius && concentric(rim) && rim.flange.r_vertical > below))
         break;
       below = rim.flange.r_vertical;
-      if (agrees(rim))
+      if (taken)
         result = rim;
     }
   }
