@@ -217,6 +217,19 @@ public:
                        const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
                        const cv::Point2d& side, Circle& circle);
 
+  /// How far refitOnMostSupport() looks: the radius within this fraction of the start's, the
+  /// centre within kRefitCentreReach of its radius.
+  static constexpr double kRefitSizeReach = 0.1;
+  static constexpr double kRefitCentreReach = 0.08;
+  /// `circle` (a refined rim of `search`) fitted again from the circle near it that the most
+  /// edges support (a local search of centre and radius on a narrow band), with refine()'s narrow
+  /// passes only. A least-squares fit from a coarse Hough cell can slide off its rim onto arcs
+  /// beside it (a neighbour's silhouette touching it, a highlight's edge) and keep part of the rim
+  /// (heldout_v2 pos_002: radius +9%); the rim itself is the better supported circle. The caller
+  /// decides which of the two to keep. False where no circle fits.
+  bool refitOnMostSupport(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                          Circle& circle);
+
   /// The raw vote image of the last call (CV_32F, one cell per `cellSize()` px), for debugging.
   const cv::Mat& votes() const
   {
@@ -253,6 +266,13 @@ private:
   double scoreRadii(cv::Size image_size, const HoughSearch& search, const Peak& peak, double lo, int bins, double slack,
                     const BackFlange& back);
   bool refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search, Circle& circle);
+  /// refine()'s least-squares passes on near_ from pass `first` (its bands narrow pass by pass),
+  /// then the support count of the final `model`; false where too few edges are left to fit.
+  bool fitPasses(cv::Size image_size, const HoughSearch& search, int first, Circle& model);
+  /// The circle (x, y, r in px) about which the edges of near_ on the side `sign` (centreSign())
+  /// put the most points, per px of radius, within the narrow fit band: centres within `reach`
+  /// px of `start`'s (a grid of reach / 4, then of a pixel), radii within kRefitSizeReach of it.
+  cv::Point3d mostSupportedNear(const Circle& start, double reach, float sign);
   /// taken_: the indices into near_ of the edges in the band `band` px wide about the axis-aligned
   /// ellipse of `model` (centre, r_horizontal, r_vertical) that support it for `sign`
   /// (centreSign); returns their count.

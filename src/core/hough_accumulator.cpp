@@ -90,6 +90,15 @@ SPOOL_VISION_PIXEL_LOOP void castVotes(const EdgePoint* edges, std::size_t count
   }
 }
 
+// The rim fit's bands (fraction of the radius) per pass: the first passes take a wide band so an
+// elliptic rim (up to ~12% stretch) is caught whole; then it narrows onto the fitted model. Four
+// fitting passes, then one that only counts the support of the final model: a fit to a short arc
+// can move far, and the score must describe the circle returned, not the last input.
+constexpr double kFitBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
+constexpr int kFits = 4;
+// The first pass of the narrow band.
+constexpr int kNarrowPass = 2;
+
 // The spare bins radiusBins() spreads the non-supporting edges over: successive additions to one
 // bin wait for each other.
 constexpr int kSpareBins = 8;
@@ -849,26 +858,13 @@ std::size_t HoughAccumulator::pickBand(const Circle& model, double band, float s
   return n;
 }
 
-bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-                              Circle& circle)
+bool HoughAccumulator::fitPasses(cv::Size image_size, const HoughSearch& search, int first, Circle& model)
 {
   const float sign = centreSign(search.polarity);
-  Circle model = circle;
-  model.r_horizontal = model.r_vertical = circle.r;
-  // The first passes take a wide band so an elliptic rim (up to ~12% stretch) is caught whole;
-  // then it narrows onto the fitted model.
-  static constexpr double kBands[] = {0.12, 0.06, 0.025, 0.025, 0.025};
-  // Only edges near the starting circle can join the fit (a fit that moves further has lost its
-  // rim): gathered once, so the passes below do not each walk every edge of the frame.
-  const double reach = 2.0 * std::max(1.5, kBands[0] * circle.r) + 2.0;
-  gatherNear(edges, {circle.x, circle.y}, circle.r - reach, circle.r + reach, {});
-  // Four fitting passes, then one that only counts the support of the final model: a fit to a
-  // short arc can move far, and the score must describe the circle returned, not the last input.
-  constexpr int kFits = 4;
   std::size_t count = 0;
-  for (int iteration = 0; iteration <= kFits; ++iteration)
+  for (int iteration = first; iteration <= kFits; ++iteration)
   {
-    const double band = std::max(1.5, kBands[iteration] * model.r);
+    const double band = std::max(1.5, kFitBands[iteration] * model.r);
     count = pickBand(model, band, sign);
     if (iteration == kFits)
       break;
@@ -888,8 +884,87 @@ bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size imag
     return false;
   // Thin 8-connected edges put about 0.9 points per unit of arc length on a rim.
   model.score = std::min(1.0, static_cast<double>(count) / (0.9 * 2.0 * kPi * model.r * model.visible_fraction));
+  return true;
+}
+
+cv::Point3d HoughAccumulator::mostSupportedNear(const Circle& start, double reach, float sign)
+{
+  const double band = std::max(1.5, kFitBands[kNarrowPass] * start.r);
+  const double lo = std::max(1.0, (1.0 - kRefitSizeReach) * start.r);
+  const double hi = (1.0 + kRefitSizeReach) * start.r;
+  const int bins = static_cast<int>(std::ceil(hi - lo)) + 1;
+  const int half = std::max(1, static_cast<int>(std::lround(band)));
+  if (support_bins_.size() < near_count_)
+    support_bins_.resize(near_count_);
+  cv::Point3d best(start.x, start.y, start.r);
+  double best_support = -1.0;
+  auto search_grid = [&](const cv::Point2d& around, double extent, double step)
+  {
+    const int steps = static_cast<int>(std::ceil(extent / step));
+    for (int iy = -steps; iy <= steps; ++iy)
+      for (int ix = -steps; ix <= steps; ++ix)
+      {
+        const cv::Point2f c(static_cast<float>(around.x + step * ix), static_cast<float>(around.y + step * iy));
+        histogram_.assign(static_cast<size_t>(bins + kSpareBins), 0.0f);
+        radiusBins(near_.data(), near_count_, c, static_cast<float>(lo), static_cast<float>(hi), sign, bins,
+                   support_bins_.data());
+        for (std::size_t i = 0; i < near_count_; ++i)
+          histogram_[support_bins_[i]] += 1.0f;
+        double window = 0.0;
+        for (int k = 0; k < std::min(bins, 2 * half + 1); ++k)
+          window += histogram_[static_cast<size_t>(k)];
+        for (int i = half; i + half < bins; ++i)
+        {
+          if (i > half)
+            window += histogram_[static_cast<size_t>(i + half)] - histogram_[static_cast<size_t>(i - half - 1)];
+          // Support per unit of radius: a larger circle is not favoured for its longer rim.
+          const double support = window / (lo + i);
+          if (support > best_support)
+          {
+            best_support = support;
+            best = cv::Point3d(c.x, c.y, lo + i);
+          }
+        }
+      }
+  };
+  const double coarse = std::max(1.0, 0.25 * reach);
+  search_grid({start.x, start.y}, reach, coarse);
+  search_grid({best.x, best.y}, coarse, 1.0);
+  return best;
+}
+
+bool HoughAccumulator::refine(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                              Circle& circle)
+{
+  Circle model = circle;
+  model.r_horizontal = model.r_vertical = circle.r;
+  // Only edges near the starting circle can join the fit (a fit that moves further has lost its
+  // rim): gathered once, so the passes below do not each walk every edge of the frame.
+  const double reach = 2.0 * std::max(1.5, kFitBands[0] * circle.r) + 2.0;
+  gatherNear(edges, {circle.x, circle.y}, circle.r - reach, circle.r + reach, {});
+  if (!fitPasses(image_size, search, 0, model))
+    return false;
   circle = model;
   return model.r >= search.r_min * 0.9 && model.r <= search.r_max * 1.1;
+}
+
+bool HoughAccumulator::refitOnMostSupport(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                          const HoughSearch& search, Circle& circle)
+{
+  const double reach = kRefitCentreReach * circle.r;
+  const double band = std::max(1.5, kFitBands[kNarrowPass] * circle.r);
+  gatherNear(edges, {circle.x, circle.y}, (1.0 - kRefitSizeReach) * circle.r - reach - band,
+             (1.0 + kRefitSizeReach) * circle.r + reach + band, {});
+  const cv::Point3d most = mostSupportedNear(circle, reach, centreSign(search.polarity));
+  Circle model = circle;
+  model.x = most.x;
+  model.y = most.y;
+  model.r = model.r_horizontal = model.r_vertical = most.z;
+  // Only the narrow passes: the wide first band would take the arcs beside the rim in again.
+  if (!fitPasses(image_size, search, kNarrowPass, model))
+    return false;
+  circle = model;
+  return true;
 }
 
 bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,

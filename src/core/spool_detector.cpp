@@ -186,7 +186,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // The whole frame's checks of the chosen spool run in a window that stands for the whole frame.
   const bool whole_frame = !window || window->whole_frame;
   const bool oblique =
-      !either && !along_rim && whole_frame && !result.hole_detected && obliqueSpool(image, format, hole_search, result);
+      !either && !along_rim && whole_frame &&
+      obliqueSpool(image, format, reference, hole_search, result.hole_detected ? cost : kNoMatch, result);
   if (along_rim)
   {
     // The moving edges on the rim are its edges, while the flange is theirs.
@@ -468,11 +469,15 @@ void takeSpool(const Circle& flange, const std::optional<Circle>& hole, SpoolDet
 }
 }  // namespace
 
-bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const HoughSearch& hole_search,
-                                 SpoolDetection& result)
+bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                                 const HoughSearch& hole_search, double bound, SpoolDetection& result)
 {
   if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright)
     return false;
+  // A spool already taken keeps its hole candidates unless this one replaces it.
+  const bool replacing = std::isfinite(bound);
+  if (replacing)
+    std::swap(holes_, target_holes_);
   const SpoolGeometry& geometry = *geometry_;
   const GeometryParams& gp = params_.geometry;
   int tried = 0;
@@ -480,6 +485,11 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   {
     const Circle flange = flanges_[i];
     if (flange.r_vertical < kObliqueRimMinRadius)
+      continue;
+    // Only another spool, nearer the reference than the one taken, can replace it.
+    if (ConcentricMatcher::targetCost({flange.x, flange.y}, flange.score, reference) >= bound)
+      break;
+    if (replacing && std::hypot(flange.x - result.flange.x, flange.y - result.flange.y) < result.flange.r)
       continue;
     if (tried++ == kObliqueCandidates)
       break;
@@ -511,7 +521,8 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
                                    std::min(gp.distance_max, kObliqueBoreFarthest * depth), search, oblique_rim_) ||
           oblique_rim_.support < kObliqueSpoolSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
           (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
-          !boreAgreesWith(hole, oblique_rim_.rim))
+          !boreAgreesWith(hole, oblique_rim_.rim) ||
+          ConcentricMatcher::targetCost({hole.x, hole.y}, oblique_rim_.support, reference) >= bound)
         continue;
       takeSpool(oblique_rim_.rim, hole, result);
       measureBoreAtKnownSize(result);
@@ -519,7 +530,10 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       return true;
     }
   }
-  holes_.clear();  // no target: its hole candidates are none
+  if (replacing)
+    std::swap(holes_, target_holes_);
+  else
+    holes_.clear();  // no target: its hole candidates are none
   return false;
 }
 
@@ -589,7 +603,9 @@ std::optional<SpoolMatch> SpoolDetector::nearestSpool(const cv::Point2d& referen
                                       reference.y - std::clamp(reference.y, w.y, w.y + w.height));
     if (nearest >= best_cost)
       continue;
-    const std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
+    std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
+    if (match && match->hole->score < kSharpHoleScore)
+      refitWeakMatch(search, flange_search, *match);
     if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y) || !holeCountsOn(*match))
       continue;
     const double cost = ConcentricMatcher::targetCost({match->hole->x, match->hole->y}, match->flange.score, reference);
@@ -601,6 +617,24 @@ std::optional<SpoolMatch> SpoolDetector::nearestSpool(const cv::Point2d& referen
     }
   }
   return best;
+}
+
+void SpoolDetector::refitWeakMatch(const HoughSearch& hole_search, const HoughSearch& flange_search, SpoolMatch& match)
+{
+  Circle refit = match.flange;
+  if (!flange_hough_.refitOnMostSupport(edges_, preprocessed_.size(), flange_search, refit) ||
+      !(refit.score > match.flange.score))
+    return;
+  HoughSearch search = hole_search;
+  if (!matcher_.narrowHoleSearch(refit, preprocessed_.size(), search))
+    return;
+  // The candidate's holes stay unless the refit's match replaces it.
+  refit_holes_ = holes_;
+  const std::optional<SpoolMatch> other = matchSpool(refit, search, flange_search);
+  if (other && other->hole->score >= kSharpHoleScore && other->flange.score >= match.flange.score)
+    match = *other;
+  else
+    holes_.swap(refit_holes_);
 }
 
 bool SpoolDetector::boreAtPrediction(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
@@ -710,7 +744,8 @@ bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hol
   // band: the hole is then the lit lens inside the bore's rim (hard set seed 7 #10: both whole),
   // which shows near the spool axis only.
   const bool holds_hole = measurable && best->r >= hole.r + std::max(kOwnBoreBandPx, kOwnBoreBand * hole.r) &&
-                          std::hypot(best->x - hole.x, best->y - hole.y) + hole.r <= best->r + kOwnBoreAgreementPx;
+                          std::hypot(best->x - hole.x, best->y - hole.y) + hole.r <= best->r + kOwnBoreAgreementPx &&
+                          litInside(hole, *best);
   if (best->score < hole.score + (holds_hole ? 0.0 : kOwnBoreMargin))
     return false;
   bore = *best;
@@ -816,7 +851,47 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
   }
   return std::abs(darker) == 4 ? lowest : 0.0;
 }
+
+// Mean grey level of `gray` over the pixels inside the circle (centre, r) and outside every one
+// of `outside` (x, y, r), each in px; NaN where none is.
+double meanInside(const cv::Mat& gray, const cv::Point2d& centre, double r, std::initializer_list<cv::Point3d> outside)
+{
+  const int x0 = std::max(0, cvFloor(centre.x - r));
+  const int x1 = std::min(gray.cols - 1, cvCeil(centre.x + r));
+  const int y0 = std::max(0, cvFloor(centre.y - r));
+  const int y1 = std::min(gray.rows - 1, cvCeil(centre.y + r));
+  double sum = 0.0;
+  int n = 0;
+  for (int y = y0; y <= y1; ++y)
+  {
+    const uchar* row = gray.ptr<uchar>(y);
+    for (int x = x0; x <= x1; ++x)
+    {
+      bool in = std::hypot(x - centre.x, y - centre.y) <= r;
+      for (const cv::Point3d& c : outside)
+        in = in && std::hypot(x - c.x, y - c.y) > c.z;
+      sum += in ? row[x] : 0.0;
+      n += in ? 1 : 0;
+    }
+  }
+  return n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
 }  // namespace
+
+bool SpoolDetector::litInside(const Circle& hole, const Circle& rim) const
+{
+  // Where the lens puts them, at the local scale (as boreContrast()).
+  const CameraIntrinsics& camera = geometry_->camera();
+  const cv::Point2d seen = distortPixel(camera, {hole.x, hole.y});
+  const cv::Point2d edge = distortPixel(camera, {hole.x + hole.r, hole.y});
+  const double scale = std::hypot(edge.x - seen.x, edge.y - seen.y) / hole.r;
+  const cv::Point2d rim_seen = distortPixel(camera, {rim.x, rim.y});
+  const double lens = meanInside(preprocessed_, seen, kLensCore * hole.r * scale, {});
+  // Inside the larger rim and outside the hole's, a pixel clear of each.
+  const double wall =
+      meanInside(preprocessed_, rim_seen, rim.r * scale - 1.0, {cv::Point3d(seen.x, seen.y, hole.r * scale + 1.0)});
+  return lens > wall;
+}
 
 double SpoolDetector::boreContrast(const cv::Point2d& centre, double r) const
 {

@@ -355,6 +355,41 @@ TEST(HoughAccumulator, FitAtMeasuresTheFrontRimAboutAKnownCentre)
   EXPECT_FALSE(hough.fitAt(edges, img.size(), search, {100, 100}, back, front));
 }
 
+TEST(HoughAccumulator, RefitOnMostSupportLeavesTheArcsBesideARimForTheRim)
+{
+  // A dark face (r 60 at (200, 150)) with two neighbours' dark discs touching its rim left and
+  // right, 12 px lower: a circle through their near arcs and the top of the rim (r 66, 6 px
+  // low) is where a fit from a coarse Hough cell can settle. Refitted, it is the rim.
+  const double x = 200.0;
+  const double y = 150.0;
+  const double r = 60.0;
+  const cv::Mat img = drawSceneGray(
+      {400, 300}, {{x - 60.0 - 70.0, y + 12.0, 72.0, 0}, {x + 60.0 + 70.0, y + 12.0, 72.0, 0}, {x, y, r, 0}});
+  cv::Mat smooth;
+  cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
+  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.05);
+  HoughSearch search;
+  search.r_min = 40;
+  search.r_max = 90;
+  HoughAccumulator hough;
+  Circle fit;
+  fit.x = x;
+  fit.y = y + 6.0;
+  fit.r = fit.r_horizontal = fit.r_vertical = 66.0;
+  ASSERT_TRUE(hough.refitOnMostSupport(edges, img.size(), search, fit));
+  EXPECT_NEAR(fit.x, x, 0.3);
+  EXPECT_NEAR(fit.y, y, 0.3);
+  EXPECT_NEAR(fit.r, r, 0.3);
+  EXPECT_GT(fit.score, 0.9);
+
+  // Nothing to refit where no edge is near.
+  Circle empty = fit;
+  empty.x = 60.0;
+  empty.y = 60.0;
+  empty.r = empty.r_horizontal = empty.r_vertical = 20.0;
+  EXPECT_FALSE(hough.refitOnMostSupport(std::vector<EdgePoint>(), img.size(), search, empty));
+}
+
 TEST(HoughAccumulator, FitAtWithAnEmptyRadiusRangeFindsNothing)
 {
   // A front rim measured about a hole with radii beyond the search range (found on a 1280x720

@@ -328,3 +328,62 @@ TEST(HeldoutCase, AnObliqueFlangeIsNotItsJointSilhouette)
   const YAML::Node centre = target["centre_px_distorted"];
   EXPECT_LE(std::hypot(d.hole.x - centre[0].as<double>(), d.hole.y - centre[1].as<double>()), 5.0);
 }
+
+namespace
+{
+// The line of heldout_v2's `file` (its truth.jsonl's lines) for frame `name`; a null node when
+// it is missing.
+YAML::Node v2Frame(const std::string& file, const std::string& name)
+{
+  std::ifstream in(kCasesV2 + file);
+  for (std::string line; std::getline(in, line);)
+  {
+    YAML::Node frame = YAML::Load(line);  // JSON is YAML
+    if (frame["name"].as<std::string>() == name)
+      return frame;
+  }
+  ADD_FAILURE() << name << " is not in " << file;
+  return YAML::Node();
+}
+
+// The target of heldout_v2's frame `name` (neighbour_frames.jsonl) where the truth puts it: depth
+// within 1%, bearing within 0.2 deg, the bore's front centre (frame px) within 1.5 px, the axis's
+// turn within 2 deg, the flange's size within 5%.
+void expectV2Target(const std::string& name)
+{
+  SCOPED_TRACE(name);
+  const YAML::Node frame = v2Frame("neighbour_frames.jsonl", name);
+  ASSERT_TRUE(frame.IsDefined() && !frame.IsNull());
+  const YAML::Node target = frame["target"];
+  const cv::Mat image = cv::imread(kCasesV2 + name + ".png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  spool_vision::SpoolDetector detector = heldoutV2Detector();
+  const SpoolDetection d = detector.detect(image, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.hole_detected);
+  const double depth = target["distance_m"].as<double>();
+  EXPECT_NEAR(d.distance, depth, 0.01 * depth);
+  EXPECT_NEAR(d.yaw, target["yaw_rad"].as<double>(), 0.2 * M_PI / 180.0);
+  const YAML::Node centre = target["centre_px_distorted"];
+  EXPECT_LE(std::hypot(d.hole.x - centre[0].as<double>(), d.hole.y - centre[1].as<double>()), 1.5);
+  EXPECT_NEAR(d.axis_yaw, target["face_yaw_rad"].as<double>(), 2.0 * M_PI / 180.0);
+  EXPECT_NEAR(d.flange.r, target["flange"]["r"].as<double>(), 0.05 * target["flange"]["r"].as<double>());
+}
+}  // namespace
+
+TEST(HeldoutCase, ARimFitDoesNotFollowANeighboursSilhouetteBesideIt)
+{
+  // heldout_v2 pos_002 (81 cm, 640x480 through a C270 lens): the neighbours' silhouettes touch
+  // the target's rim left and right (and a lamp lights its glossy face). The rim fit from the
+  // Hough cell followed them: radius +9%, 0.75 m, and its hole search found a ring off the bore
+  // (score 0.55). The circle the most rim edges support nearby leads to the bore (score 1.0).
+  expectV2Target("pos_002");
+}
+
+TEST(HeldoutCase, ATurnedTargetIsNotPassedOverForANeighbour)
+{
+  // heldout_v2 pos_013 (92 cm, bearing -8 deg, the spool turned 19 deg: 27 deg off its axis):
+  // the Hough circle is the joint silhouette of its front and back flanges, 26 px off the bore,
+  // and the neighbour at +17 deg was reported. The rim measured about the bore over turned poses
+  // (RimPoseSearch) is the target; its bore is dark, not the lens of a hub ring around it.
+  expectV2Target("pos_013");
+}
