@@ -271,6 +271,30 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     }
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  if (!window && !result.detected && !second_search_)
+  {
+    // Nothing in the whole frame: texture elsewhere may have taken the target rim's share of the
+    // edge budget (a clear target missed at edge_budget 6, found at 8). Searched again with
+    // kRetryBudgetScale times the budget; what that finds is taken only where both its rims are
+    // solid, since more edges let clutter vote for more false circles too.
+    second_search_ = true;
+    SpoolDetection second;
+    try
+    {
+      second = detect(image, format, window);
+    }
+    catch (...)
+    {
+      second_search_ = false;
+      throw;
+    }
+    second_search_ = false;
+    const double first_ms = result.time_ms;
+    if (second.hole_detected && second.flange.score >= ConcentricMatcher::kSolidRimScore &&
+        second.hole.score >= ConcentricMatcher::kSolidRimScore)
+      result = second;
+    result.time_ms = first_ms + second.time_ms;
+  }
   return result;
 }
 
@@ -444,7 +468,8 @@ void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
 {
-  return static_cast<std::size_t>(params_.hough.edge_budget * (size.width + size.height));
+  const double scale = second_search_ ? kRetryBudgetScale : 1.0;
+  return static_cast<std::size_t>(scale * params_.hough.edge_budget * (size.width + size.height));
 }
 
 void SpoolDetector::extractHoleEdges(const cv::Rect2d& centres, double reach, const LinearLight* linear)
