@@ -228,7 +228,8 @@ private:
   /// Only the pixels about that bore are preprocessed (prepareAround()).
   bool boreAtPrediction(const cv::Mat& image, PixelFormat format, const FlangeWindow& window, SpoolDetection& result);
   /// holes_: the hole rims among hole_edges_ (hole_hough_), less those scoring under
-  /// weak_hole_score whose disc does not differ from the face by bore_contrast.
+  /// weak_hole_score whose disc does not differ from the face by bore_contrast, or, from
+  /// kMinKnownSizeRadius up, is not darker than it by that much (signedBoreContrast()).
   void detectHoles(const HoughSearch& hole_search);
   /// Whether `match`'s hole is evidence of a bore: always on a flange with at least
   /// kCutFlangeVisibleFraction of its rim in the frame; on one cut by the border only with a rim
@@ -238,6 +239,9 @@ private:
   /// around it, read where the lens puts it in the frame (fraction of full scale, 0 when not the
   /// same way on all four sides).
   double boreContrast(const cv::Point2d& centre, double r) const;
+  /// boreContrast() with its sign: positive where the disc is darker than the face on all four
+  /// sides (a dark bore), negative where it is lighter (a lit lens, copper, a label).
+  double signedBoreContrast(const cv::Point2d& centre, double r) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
   /// How MovingEdges searches a predicted rim: `reach` px either way, either polarity, half of

@@ -126,7 +126,8 @@ std::vector<ParamSpec> buildSpecs()
              "ignore circles with less of their rim inside the image"),
       number("max_candidates", FIELD(hough.max_candidates), 1, 64, "", "flange candidates examined per frame"),
       number("edge_budget", FIELD(hough.edge_budget), 0.5, 1000.0, "per px of width + height",
-             "most edges kept per frame (the strongest), which bounds the time of a cluttered frame"),
+             "most edges kept per frame (the strongest), which bounds the time of a cluttered frame; twice it "
+             "in the second search of a frame that gave no spool"),
       // Concentric matcher (thesis Eq. 3.1, Rule 2)
       choice<MatchMode>("mode", FIELD(matcher.mode), {"mcht", "cht"},
                         "mcht: hole must be concentric with the flange; cht: no constraint"),
@@ -139,7 +140,7 @@ std::vector<ParamSpec> buildSpecs()
              "spool_evidence bore: least difference between the bore disc and the face around it"),
       number("weak_hole_score", FIELD(matcher.weak_hole_score), 0.0, 1.0, "",
              "a hole rim scoring below this counts only where its disc also differs from the face by "
-             "bore_contrast (0 = every hole rim counts)"),
+             "bore_contrast, and from 6 px of radius up only where it is darker (0 = every hole rim counts)"),
       number("cut_flange_hole_score", FIELD(matcher.cut_flange_hole_score), 0.0, 1.0, "",
              "the same on a flange with under 70% of its rim in the frame, often a neighbour's back flange "
              "centred on its face (0 = as weak_hole_score)"),

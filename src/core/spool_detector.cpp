@@ -874,7 +874,8 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
     darker += d > 0.0 ? 1 : -1;
     lowest = std::min(lowest, std::abs(d) / 255.0);
   }
-  return std::abs(darker) == 4 ? lowest : 0.0;
+  // Signed: positive for a disc darker than all around it, negative for one lighter.
+  return std::abs(darker) == 4 ? (darker > 0 ? lowest : -lowest) : 0.0;
 }
 
 // Mean grey level of `gray` over the pixels inside the circle (centre, r) and outside every one
@@ -920,6 +921,11 @@ bool SpoolDetector::litInside(const Circle& hole, const Circle& rim) const
 
 double SpoolDetector::boreContrast(const cv::Point2d& centre, double r) const
 {
+  return std::abs(signedBoreContrast(centre, r));
+}
+
+double SpoolDetector::signedBoreContrast(const cv::Point2d& centre, double r) const
+{
   // The frame is not undistorted: look where the lens puts the disc, at its local scale.
   const cv::Point2d seen = distortPixel(geometry_->camera(), centre);
   const cv::Point2d edge = distortPixel(geometry_->camera(), {centre.x + r, centre.y});
@@ -933,8 +939,15 @@ void SpoolDetector::detectHoles(const HoughSearch& hole_search)
   // neighbour's face cut by the frame border, noise and ribs close weak rims of the bore's size.
   const MatcherParams& mp = params_.matcher;
   holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
-                              [&](const Circle& h) {
-                                return h.score < mp.weak_hole_score && boreContrast({h.x, h.y}, h.r) < mp.bore_contrast;
+                              [&](const Circle& h)
+                              {
+                                if (h.score >= mp.weak_hole_score)
+                                  return false;
+                                // From kMinKnownSizeRadius up a lit bore's lens is ringed by the
+                                // sharp rim of its dark wall: a weak ring about a lighter disc is
+                                // copper, a label or the light between two spools.
+                                const double contrast = signedBoreContrast({h.x, h.y}, h.r);
+                                return (h.r >= kMinKnownSizeRadius ? contrast : std::abs(contrast)) < mp.bore_contrast;
                               }),
                holes_.end());
 }
