@@ -34,12 +34,18 @@ std::vector<EdgePoint> edgesOf(const cv::Mat& gray, double threshold)
   return edges;
 }
 
-std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polarity polarity,
-                         cv::Rect2d window = cv::Rect2d(), double threshold = 0.05)
+// Every edge of `gray` blurred by a 1 px Gaussian (a lens's blur), above `threshold`.
+std::vector<EdgePoint> blurredEdgesOf(const cv::Mat& gray, double threshold = 0.05)
 {
   cv::Mat smooth;
   cv::GaussianBlur(gray, smooth, cv::Size(), 1.0);
-  const std::vector<EdgePoint> points = edgesOf(smooth, threshold);
+  return edgesOf(smooth, threshold);
+}
+
+std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polarity polarity,
+                         cv::Rect2d window = cv::Rect2d(), double threshold = 0.05)
+{
+  const std::vector<EdgePoint> points = blurredEdgesOf(gray, threshold);
   HoughSearch search;
   search.r_min = r_min;
   search.r_max = r_max;
@@ -325,9 +331,7 @@ TEST(HoughAccumulator, FitAtMeasuresTheFrontRimAboutAKnownCentre)
   const double r = 150.4;
   const double k = back.scale(r);
   const cv::Mat img = drawSceneGray({640, 480}, {{320 + k * (x - 320), 240 + k * (y - 240), k * r, 0}, {x, y, r, 0}});
-  cv::Mat smooth;
-  cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
-  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.05);
+  const std::vector<EdgePoint> edges = blurredEdgesOf(img);
   HoughSearch search;
   search.r_min = 100;
   search.r_max = 200;
@@ -365,9 +369,7 @@ TEST(HoughAccumulator, RefitOnMostSupportLeavesTheArcsBesideARimForTheRim)
   const double r = 60.0;
   const cv::Mat img = drawSceneGray(
       {400, 300}, {{x - 60.0 - 70.0, y + 12.0, 72.0, 0}, {x + 60.0 + 70.0, y + 12.0, 72.0, 0}, {x, y, r, 0}});
-  cv::Mat smooth;
-  cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
-  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.05);
+  const std::vector<EdgePoint> edges = blurredEdgesOf(img);
   HoughSearch search;
   search.r_min = 40;
   search.r_max = 90;
