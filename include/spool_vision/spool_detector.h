@@ -228,8 +228,9 @@ private:
   /// Only the pixels about that bore are preprocessed (prepareAround()).
   bool boreAtPrediction(const cv::Mat& image, PixelFormat format, const FlangeWindow& window, SpoolDetection& result);
   /// holes_: the hole rims among hole_edges_ (hole_hough_), less those scoring under
-  /// weak_hole_score whose disc does not differ from the face by bore_contrast, or, from
-  /// kMinKnownSizeRadius up, is not darker than it by that much (signedBoreContrast()).
+  /// weak_hole_score whose disc does not differ from the face by bore_contrast, or, in a
+  /// whole-frame search from kMinKnownSizeRadius up, is not darker than it by that much
+  /// (signedBoreContrast()).
   void detectHoles(const HoughSearch& hole_search);
   /// Whether `match`'s hole is evidence of a bore: always on a flange with at least
   /// kCutFlangeVisibleFraction of its rim in the frame; on one cut by the border only with a rim
@@ -354,6 +355,7 @@ private:
   std::vector<Circle> target_holes_;   ///< the best candidate's while the others are searched
   std::vector<Circle> first_holes_;    ///< the first search's target's during the flange_retry search
   bool second_search_ = false;         ///< the whole frame searched again (kRetryBudgetScale)
+  bool whole_frame_search_ = true;     ///< detect() searches the whole frame (or a window standing for it)
   std::vector<Circle> refit_holes_;    ///< a weak match's while its refit flange is matched
   std::vector<Circle> first_flanges_;  ///< the first search's candidates during the flange_retry search
   std::vector<Circle> lenses_;

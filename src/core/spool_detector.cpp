@@ -133,6 +133,18 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const HoughSearch hole_search = houghSearch(hp, hp.hole_polarity, hp.hole_sensitivity, hp.hole_radius_min, hole_min,
                                               hp.hole_radius_max, hole_max);
   const cv::Point2d reference = geometry.reference(geometry.nominalDistance());
+  // A window's own searches (an outer rim's, below) leave the frame's setting as it was.
+  const bool outer_whole_frame = whole_frame_search_;
+  whole_frame_search_ = !window || window->whole_frame;
+  struct Restore
+  {
+    bool& flag;
+    bool value;
+    ~Restore()
+    {
+      flag = value;
+    }
+  } restore{whole_frame_search_, outer_whole_frame};
 
   SpoolDetection result;
   bool along_rim = window && window->rim.radius > 0.0;
@@ -943,11 +955,13 @@ void SpoolDetector::detectHoles(const HoughSearch& hole_search)
                               {
                                 if (h.score >= mp.weak_hole_score)
                                   return false;
-                                // From kMinKnownSizeRadius up a lit bore's lens is ringed by the
-                                // sharp rim of its dark wall: a weak ring about a lighter disc is
-                                // copper, a label or the light between two spools.
+                                // In a whole-frame search, from kMinKnownSizeRadius up, a weak ring
+                                // about a lighter disc is copper, a label or the light between two
+                                // spools (a lit bore's lens is ringed by its sharp rim there); a
+                                // track's window is where its bore was, whatever lights it.
                                 const double contrast = signedBoreContrast({h.x, h.y}, h.r);
-                                return (h.r >= kMinKnownSizeRadius ? contrast : std::abs(contrast)) < mp.bore_contrast;
+                                const bool darker = whole_frame_search_ && h.r >= kMinKnownSizeRadius;
+                                return (darker ? contrast : std::abs(contrast)) < mp.bore_contrast;
                               }),
                holes_.end());
 }
