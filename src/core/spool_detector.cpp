@@ -148,6 +148,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
 
   SpoolDetection result;
   bool along_rim = window && window->rim.radius > 0.0;
+  bool budget_bound = false;
   // A tracked rim's bore is first measured at its known size where the track puts it; the hole
   // search runs where that finds no bore rim.
   bool at_prediction = false;
@@ -182,6 +183,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     {
       preprocessor_.process(image, format, preprocessed_);
       edge_detector_.detect(preprocessed_, hp.edge_threshold, edgeBudget(image.size()), edges_);
+      // Fewer edges than the budget: a larger one keeps the same edges.
+      budget_bound = edges_.size() >= edgeBudget(image.size());
     }
     flange_hough_.detect(edges_, image.size(), flange_search, flanges_);
   }
@@ -283,10 +286,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     }
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (!window && !result.detected && !second_search_)
+  if (!window && !result.detected && budget_bound && !second_search_)
   {
-    // Nothing in the whole frame: texture elsewhere may have taken the target rim's share of the
-    // edge budget (a clear target missed at edge_budget 6, found at 8). Searched again with
+    // Nothing in the whole frame, whose edges filled the budget: texture elsewhere may have taken
+    // the target rim's share (a clear target missed at edge_budget 6, found at 8). Searched again with
     // kRetryBudgetScale times the budget; what that finds is taken only where both its rims are
     // solid, since more edges let clutter vote for more false circles too.
     second_search_ = true;
