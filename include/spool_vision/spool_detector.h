@@ -172,6 +172,9 @@ private:
   /// ring's inside is face, lighter than the bore: heldout_v2 pos_013) is not: 4 against 80 there,
   /// 183 against 58 for the lens of hard seed 7 #10.
   bool litInside(const Circle& hole, const Circle& rim) const;
+  /// Where the lens puts the circle (`centre`, `r`; undistorted px) in the frame: its centre (x, y)
+  /// and its radius there (z), px.
+  cv::Point3d inFrame(const cv::Point2d& centre, double r) const;
   static constexpr double kLensCore = 0.8;
   /// A candidate's match whose hole scores under kSharpHoleScore, with its flange fitted again on
   /// the circle nearby that the most edges support (HoughAccumulator::refitOnMostSupport):
@@ -351,12 +354,17 @@ private:
   std::vector<EdgePoint> hole_edges_;
   std::vector<cv::Point2f> rim_;
   std::vector<Circle> flanges_;
-  std::vector<Circle> holes_;          ///< hole candidates of the target (or of the last search)
-  std::vector<Circle> target_holes_;   ///< the best candidate's while the others are searched
-  std::vector<Circle> first_holes_;    ///< the first search's target's during the flange_retry search
-  bool second_search_ = false;         ///< the whole frame searched again (kRetryBudgetScale)
-  bool whole_frame_search_ = true;     ///< detect() searches the whole frame (or a window standing for it)
-  std::vector<Circle> refit_holes_;    ///< a weak match's while its refit flange is matched
+  std::vector<Circle> holes_;         ///< hole candidates of the target (or of the last search)
+  std::vector<Circle> target_holes_;  ///< the best candidate's while the others are searched
+  std::vector<Circle> first_holes_;   ///< the first search's target's during the flange_retry search
+  /// What the running detect() is, for the steps deep in it.
+  struct SearchSettings
+  {
+    bool whole_frame = true;  ///< the whole frame (or a window standing for it), not a track's window
+    bool second = false;      ///< the whole frame searched again (kRetryBudgetScale)
+  };
+  SearchSettings search_;
+  std::vector<Circle> refit_holes_;    ///< a weak match's while its refit flange is matched (swapped)
   std::vector<Circle> first_flanges_;  ///< the first search's candidates during the flange_retry search
   std::vector<Circle> lenses_;
   std::vector<Circle> own_bores_;    ///< innerRing()'s circles about the target's bore

@@ -133,18 +133,21 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const HoughSearch hole_search = houghSearch(hp, hp.hole_polarity, hp.hole_sensitivity, hp.hole_radius_min, hole_min,
                                               hp.hole_radius_max, hole_max);
   const cv::Point2d reference = geometry.reference(geometry.nominalDistance());
-  // A window's own searches (an outer rim's, below) leave the frame's setting as it was.
-  const bool outer_whole_frame = whole_frame_search_;
-  whole_frame_search_ = !window || window->whole_frame;
+  // The whole frame's checks of the chosen spool run in a window that stands for the whole frame.
+  const bool whole_frame = !window || window->whole_frame;
+  // The steps below read this search's settings; the searches nested in it (an outer rim's, the
+  // second search) set their own, and the caller's are back when this one returns.
+  const SearchSettings outer = search_;
   struct Restore
   {
-    bool& flag;
-    bool value;
+    SearchSettings& settings;
+    SearchSettings value;
     ~Restore()
     {
-      flag = value;
+      settings = value;
     }
-  } restore{whole_frame_search_, outer_whole_frame};
+  } restore{search_, outer};
+  search_.whole_frame = whole_frame;
 
   SpoolDetection result;
   bool along_rim = window && window->rim.radius > 0.0;
@@ -198,8 +201,6 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                      params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
                      !(cost <= result.flange.r);
   const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
-  // The whole frame's checks of the chosen spool run in a window that stands for the whole frame.
-  const bool whole_frame = !window || window->whole_frame;
   const bool oblique =
       !either && !along_rim && whole_frame &&
       obliqueSpool(image, format, reference, hole_search, result.hole_detected ? cost : kNoMatch, result);
@@ -286,24 +287,14 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     }
   }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (!window && !result.detected && budget_bound && !second_search_)
+  if (!window && !result.detected && budget_bound && !search_.second)
   {
     // Nothing in the whole frame, whose edges filled the budget: texture elsewhere may have taken
     // the target rim's share (a clear target missed at edge_budget 6, found at 8). Searched again with
     // kRetryBudgetScale times the budget; what that finds is taken only where both its rims are
     // solid, since more edges let clutter vote for more false circles too.
-    second_search_ = true;
-    SpoolDetection second;
-    try
-    {
-      second = detect(image, format, window);
-    }
-    catch (...)
-    {
-      second_search_ = false;
-      throw;
-    }
-    second_search_ = false;
+    search_.second = true;
+    const SpoolDetection second = detect(image, format, window);
     const double first_ms = result.time_ms;
     if (second.hole_detected && second.flange.score >= ConcentricMatcher::kSolidRimScore &&
         second.hole.score >= ConcentricMatcher::kSolidRimScore)
@@ -483,7 +474,7 @@ void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
 {
-  const double scale = second_search_ ? kRetryBudgetScale : 1.0;
+  const double scale = search_.second ? kRetryBudgetScale : 1.0;
   return static_cast<std::size_t>(scale * params_.hough.edge_budget * (size.width + size.height));
 }
 
@@ -668,8 +659,8 @@ void SpoolDetector::refitWeakMatch(const HoughSearch& hole_search, const HoughSe
   HoughSearch search = hole_search;
   if (!matcher_.narrowHoleSearch(refit, preprocessed_.size(), search))
     return;
-  // The candidate's holes stay unless the refit's match replaces it.
-  refit_holes_ = holes_;
+  // The candidate's holes stay unless the refit's match replaces it (matchSpool() fills holes_ anew).
+  holes_.swap(refit_holes_);
   const std::optional<SpoolMatch> other = matchSpool(refit, search, flange_search);
   if (other && other->hole->score >= kSharpHoleScore && other->flange.score >= match.flange.score)
     match = *other;
@@ -919,18 +910,22 @@ double meanInside(const cv::Mat& gray, const cv::Point2d& centre, double r, std:
 }
 }  // namespace
 
+cv::Point3d SpoolDetector::inFrame(const cv::Point2d& centre, double r) const
+{
+  // The frame is not undistorted: where the lens puts the centre, at its local scale.
+  const cv::Point2d seen = distortPixel(geometry_->camera(), centre);
+  const cv::Point2d edge = distortPixel(geometry_->camera(), {centre.x + r, centre.y});
+  return {seen.x, seen.y, std::hypot(edge.x - seen.x, edge.y - seen.y)};
+}
+
 bool SpoolDetector::litInside(const Circle& hole, const Circle& rim) const
 {
-  // Where the lens puts them, at the local scale (as boreContrast()).
-  const CameraIntrinsics& camera = geometry_->camera();
-  const cv::Point2d seen = distortPixel(camera, {hole.x, hole.y});
-  const cv::Point2d edge = distortPixel(camera, {hole.x + hole.r, hole.y});
-  const double scale = std::hypot(edge.x - seen.x, edge.y - seen.y) / hole.r;
-  const cv::Point2d rim_seen = distortPixel(camera, {rim.x, rim.y});
-  const double lens = meanInside(preprocessed_, seen, kLensCore * hole.r * scale, {});
+  const cv::Point3d lens_disc = inFrame({hole.x, hole.y}, hole.r);
+  const cv::Point3d rim_disc = inFrame({rim.x, rim.y}, rim.r);
+  const double lens = meanInside(preprocessed_, {lens_disc.x, lens_disc.y}, kLensCore * lens_disc.z, {});
   // Inside the larger rim and outside the hole's, a pixel clear of each.
-  const double wall =
-      meanInside(preprocessed_, rim_seen, rim.r * scale - 1.0, {cv::Point3d(seen.x, seen.y, hole.r * scale + 1.0)});
+  const double wall = meanInside(preprocessed_, {rim_disc.x, rim_disc.y}, rim_disc.z - 1.0,
+                                 {cv::Point3d(lens_disc.x, lens_disc.y, lens_disc.z + 1.0)});
   return lens > wall;
 }
 
@@ -941,10 +936,8 @@ double SpoolDetector::boreContrast(const cv::Point2d& centre, double r) const
 
 double SpoolDetector::signedBoreContrast(const cv::Point2d& centre, double r) const
 {
-  // The frame is not undistorted: look where the lens puts the disc, at its local scale.
-  const cv::Point2d seen = distortPixel(geometry_->camera(), centre);
-  const cv::Point2d edge = distortPixel(geometry_->camera(), {centre.x + r, centre.y});
-  return discContrast(preprocessed_, seen, std::hypot(edge.x - seen.x, edge.y - seen.y));
+  const cv::Point3d disc = inFrame(centre, r);
+  return discContrast(preprocessed_, {disc.x, disc.y}, disc.z);
 }
 
 void SpoolDetector::detectHoles(const HoughSearch& hole_search)
@@ -963,7 +956,7 @@ void SpoolDetector::detectHoles(const HoughSearch& hole_search)
                                 // spools (a lit bore's lens is ringed by its sharp rim there); a
                                 // track's window is where its bore was, whatever lights it.
                                 const double contrast = signedBoreContrast({h.x, h.y}, h.r);
-                                const bool darker = whole_frame_search_ && h.r >= kMinKnownSizeRadius;
+                                const bool darker = search_.whole_frame && h.r >= kMinKnownSizeRadius;
                                 return (darker ? contrast : std::abs(contrast)) < mp.bore_contrast;
                               }),
                holes_.end());
