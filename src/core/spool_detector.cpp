@@ -636,7 +636,7 @@ std::optional<SpoolMatch> SpoolDetector::nearestSpool(const cv::Point2d& referen
       continue;
     std::optional<SpoolMatch> match = matchSpool(flanges_[i], search, flange_search);
     if (match && match->hole->score < kSharpHoleScore)
-      refitWeakMatch(search, flange_search, *match);
+      refitWeakMatch(hole_search, flange_search, *match);
     if (!match || !geometry_->atPullerLevel(match->flange, match->hole->y) || !holeCountsOn(*match))
       continue;
     const double cost = ConcentricMatcher::targetCost({match->hole->x, match->hole->y}, match->flange.score, reference);
