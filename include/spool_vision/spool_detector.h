@@ -92,6 +92,14 @@ public:
 
   /// Least support of the hole rim of a spool found by the flange_retry search.
   static constexpr double kRetryHoleScore = 0.35;
+  /// The search for a spool nearer the reference than the one taken (searchNearer()) asks its
+  /// flange for (1 - this) of its rim: a target whose rim touches its neighbours and has a back
+  /// row behind the gaps shows 40-50% of it against the wall and the boards (packed set seed 7
+  /// #56: 0.41). Its hole needs kNearerHoleScore of its rim: the ghosts such weak flanges admit
+  /// (arcs of a neighbour and the boards) came with hole rims of 0.37 (hard seed 7 #69), the
+  /// spools with 0.5 and up.
+  static constexpr double kNearerSensitivity = 0.7;
+  static constexpr double kNearerHoleScore = 0.5;
   /// The smallest frame the detector accepts (each side, px).
   static constexpr int kMinImageSide = 32;
   /// A window's flange rim reaches at most this many times its largest radius from the window's
@@ -210,6 +218,17 @@ private:
   /// (selectTarget()'s of the first search).
   bool searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,
                             const HoughSearch& hole_search, double cost, SpoolDetection& result);
+  /// The flange centres (in preprocessed_ px) of spools whose hole can cost less than `cost`
+  /// (ConcentricMatcher::targetCost()): within cost plus the widest hole window's reach (that of
+  /// the largest flange) of the reference.
+  cv::Rect2d centresCostingLess(const cv::Point2d& reference, const HoughSearch& flange_search,
+                                const HoughSearch& hole_search, double cost) const;
+  /// A spool nearer the reference than the one taken (costing `cost`) whose rim the flange search
+  /// missed: that search again over centresCostingLess(), its least rim score lowered to
+  /// 1 - kNearerSensitivity, each spool needing a hole rim of kNearerHoleScore. Replaces `result`
+  /// and returns true when its target costs less than `cost`.
+  bool searchNearer(const cv::Point2d& reference, const HoughSearch& flange_search, const HoughSearch& hole_search,
+                    double cost, SpoolDetection& result);
   /// `flange`'s spool: the flange (measured again about the hole when the fit was off it) and a
   /// hole found in `hole_search` that passes the concentric rule; nullopt when none does.
   std::optional<SpoolMatch> matchSpool(const Circle& flange, const HoughSearch& hole_search,

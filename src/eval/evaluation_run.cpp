@@ -272,6 +272,8 @@ int FrameCounts::of(FrameSet set) const
       return distorted;
     case FrameSet::kOblique:
       return oblique;
+    case FrameSet::kPacked:
+      return packed;
     case FrameSet::kApproach:
     case FrameSet::kApproachHard:
       break;

@@ -12,13 +12,14 @@ namespace
 {
 constexpr double kDeg = M_PI / 180.0;
 
-constexpr std::array<std::pair<FrameSet, const char*>, 7> kSetNames = {{{FrameSet::kMain, "main"},
+constexpr std::array<std::pair<FrameSet, const char*>, 8> kSetNames = {{{FrameSet::kMain, "main"},
                                                                         {FrameSet::kApproach, "approach"},
                                                                         {FrameSet::kNegatives, "negatives"},
                                                                         {FrameSet::kHard, "hard"},
                                                                         {FrameSet::kDistorted, "distorted"},
                                                                         {FrameSet::kApproachHard, "approach_hard"},
-                                                                        {FrameSet::kOblique, "oblique"}}};
+                                                                        {FrameSet::kOblique, "oblique"},
+                                                                        {FrameSet::kPacked, "packed"}}};
 
 std::uint64_t frameSeed(std::uint64_t seed, int index)
 {
@@ -42,8 +43,10 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   SceneKind kind = SceneKind::kSpool;
   if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
     kind = randomNegative(rng);
-  const bool hard = set == FrameSet::kHard || set == FrameSet::kOblique;
+  const bool hard = set == FrameSet::kHard || set == FrameSet::kOblique || set == FrameSet::kPacked;
   scene = hard ? randomHardScene(kind, seed) : randomScene(kind, seed);
+  if (set == FrameSet::kPacked)
+    packShelf(seed, scene);
   // Drawn last to first: the order in which the compiler evaluated these as call arguments
   // when the main set was first rendered, which keeps the main set's frames as they were.
   const double pitch = rng.uniform(-2.0, 2.0) * kDeg;
@@ -191,7 +194,7 @@ CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
   CameraIntrinsics camera = CameraIntrinsics::thesisDefault(size.width, size.height);
   if (focal > 0.0)
     camera.fx = camera.fy = focal;
-  if (set == FrameSet::kHard || set == FrameSet::kApproachHard || set == FrameSet::kOblique)
+  if (set == FrameSet::kHard || set == FrameSet::kApproachHard || set == FrameSet::kOblique || set == FrameSet::kPacked)
   {
     camera.cx += 0.015 * size.width;
     camera.cy -= 0.012 * size.height;

@@ -28,7 +28,8 @@ std::optional<size_t> targetIndex(const std::vector<SpoolTruth>& spools, const C
 {
   std::optional<size_t> target;
   for (size_t i = 0; i < spools.size(); ++i)
-    if (inView(camera, spools[i].flange) && (!target || std::abs(spools[i].yaw) < std::abs(spools[*target].yaw)))
+    if (!spools[i].back_row && inView(camera, spools[i].flange) &&
+        (!target || std::abs(spools[i].yaw) < std::abs(spools[*target].yaw)))
       target = i;
   return target;
 }
@@ -45,7 +46,7 @@ size_t judgedIndex(const std::vector<SpoolTruth>& spools, size_t target, const C
   if (!detection.detected || flangeMatches(spools[target].flange, detection.flange))
     return target;
   for (size_t i = 0; i < spools.size(); ++i)
-    if (i != target && inView(camera, spools[i].flange) &&
+    if (i != target && !spools[i].back_row && inView(camera, spools[i].flange) &&
         std::abs(std::abs(spools[i].yaw) - std::abs(spools[target].yaw)) <= kTieMargin &&
         flangeMatches(spools[i].flange, detection.flange))
       return i;
@@ -60,7 +61,7 @@ std::vector<SpoolTruth> renderedSpools(const GroundTruth& truth)
   if (truth.flange)
     spools.push_back({*truth.flange, truth.distance, truth.yaw, true});
   for (const NeighbourTruth& n : truth.neighbours)
-    spools.push_back({n.flange, n.distance, n.yaw, false});
+    spools.push_back({n.flange, n.distance, n.yaw, false, n.back_row});
   return spools;
 }
 

@@ -183,6 +183,20 @@ std::vector<Vec3> neighbourCentres(const SceneParams& p)
   return centres;
 }
 
+// Front flange centres of the back row's spools: every pitch from its offset, within its half width.
+std::vector<Vec3> backRowCentres(const SceneParams& p)
+{
+  std::vector<Vec3> centres;
+  const BackRow& row = p.back_row;
+  if (row.z <= 0.0)
+    return centres;
+  const double pitch = p.flange_diameter + row.gap;
+  for (double x = row.offset - pitch * std::floor((row.offset + row.half_width) / pitch); x <= row.half_width;
+       x += pitch)
+    centres.emplace_back(x, SpoolRenderer::kHoleHeight, row.z);
+  return centres;
+}
+
 Vec3 toVec(const cv::Vec3d& v)
 {
   return Vec3(v[0], v[1], v[2]);
@@ -295,7 +309,11 @@ SceneGeometry sceneGeometry(const SceneParams& p)
 {
   SceneGeometry geometry;
   const double big = 0.5 * p.flange_diameter;
-  geometry.wall_z = p.bore_length + p.wall_gap;
+  if (p.back_row.z > 0.0 && p.back_row.z < p.bore_length)
+    throw std::invalid_argument("scene: back_row.z (" + std::to_string(p.back_row.z) +
+                                " m) must be 0 (no back row) or at least bore_length (" +
+                                std::to_string(p.bore_length) + " m): the rows would overlap");
+  geometry.wall_z = std::max(0.0, p.back_row.z) + p.bore_length + p.wall_gap;
   geometry.lower_board_top = SpoolRenderer::kHoleHeight - big;
   geometry.lower_board_bottom = geometry.lower_board_top - p.board_thickness;
   geometry.upper_board_bottom = SpoolRenderer::kHoleHeight + big + p.top_board_clearance;
@@ -337,6 +355,8 @@ SceneGeometry sceneGeometry(const SceneParams& p)
   int count = 0;
   for (const Vec3& centre : neighbourCentres(p))
     addSpool(p, centre.x(), centre.z(), p.label_angle + 1.7 * ++count, geometry);
+  for (const Vec3& centre : backRowCentres(p))
+    addSpool(p, centre.x(), centre.z(), p.label_angle + 2.3 * ++count, geometry);
   return geometry;
 }
 
@@ -917,6 +937,22 @@ struct OpeningView
   bool occluded = false;
 };
 
+// True where the ray from the camera along `d` meets a back-row spool's front flange face (black:
+// the bore's see-through shows no light there).
+bool backRowBlocks(const SceneParams& scene, const CameraFrame& cam, const Vec3& d)
+{
+  const double big = 0.5 * scene.flange_diameter;
+  const double hole = 0.5 * scene.hole_diameter;
+  for (const Vec3& centre : backRowCentres(scene))
+  {
+    const Vec3 r = cam.centre + d * ((centre.z() - cam.centre.z()) / d.z());
+    const double off = std::hypot(r.x() - centre.x(), r.y() - centre.y());
+    if (off <= big && off > hole)
+      return true;
+  }
+  return false;
+}
+
 OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const SceneParams& scene)
 {
   constexpr int kGrid = 64;
@@ -938,7 +974,7 @@ OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const
       const Vec3 pc = world_to_cam * d;
       view.occluded |= pullerRodHit(pc, scene.puller_rod_length) < 1.0;
       const Vec3 q = cam.centre + d * ((scene.bore_length - cam.centre.z()) / d.z());
-      if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius)
+      if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius && !backRowBlocks(scene, cam, d))
         lens.emplace_back(pc.x(), pc.y(), pc.z());
     }
   view.lit_fraction = total > 0 ? static_cast<double>(lens.size()) / total : 0.0;
@@ -1188,6 +1224,12 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
       gt.spool_centre_in_view |= insideImage(camera_, pc->centre_x, pc->centre_y);
       const Vec3 c = world_to_cam * (centre - cam.centre);
       gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z())});
+    }
+  for (const Vec3& centre : backRowCentres(scene))
+    if (auto pc = projectCircle(camera_, cam, centre, big))
+    {
+      const Vec3 c = world_to_cam * (centre - cam.centre);
+      gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z()), true});
     }
   if (scene.kind != SceneKind::kSpool)
     return gt;
@@ -1571,6 +1613,21 @@ void drawPrints(cv::RNG& rng, SceneParams& s)
 
 }  // namespace
 
+void packShelf(std::uint64_t seed, SceneParams& scene)
+{
+  cv::RNG rng(mixSeed(seed, 5));
+  const bool touching = chance(rng, 0.5);
+  scene.neighbours.clear();
+  for (int side : {-1, 1})
+    for (int i = rng.uniform(1, 4); i > 0; --i)
+      scene.neighbours.push_back({side, touching ? 0.0 : rng.uniform(0.002, 0.015), rng.uniform(-0.02, 0.02)});
+  if (scene.kind != SceneKind::kSpool || !chance(rng, 0.7))
+    return;
+  scene.back_row.z = scene.bore_length + rng.uniform(0.0, 0.06);
+  scene.back_row.gap = rng.uniform(0.0, 0.05);
+  scene.back_row.offset = rng.uniform(-0.5, 0.5) * (scene.flange_diameter + scene.back_row.gap);
+}
+
 SceneParams randomHardScene(SceneKind kind, std::uint64_t seed)
 {
   SceneParams s = randomScene(kind, seed);
@@ -1592,7 +1649,10 @@ nlohmann::ordered_json groundTruthJson(const GroundTruth& t)
 {
   Json neighbours = Json::array();
   for (const NeighbourTruth& n : t.neighbours)
-    neighbours.push_back({{"flange", circleJson(n.flange)}, {"distance", number(n.distance)}, {"yaw", number(n.yaw)}});
+    neighbours.push_back({{"flange", circleJson(n.flange)},
+                          {"distance", number(n.distance)},
+                          {"yaw", number(n.yaw)},
+                          {"back_row", n.back_row}});
   return {{"kind", toString(t.kind)},
           {"lamps", toString(t.lamps)},
           {"illuminance", number(t.illuminance)},

@@ -105,15 +105,16 @@ sv::DetectorParams config(const std::string& name)
 TEST(LabelledSets, EachSetHasOneNameThatReadsBack)
 {
   std::set<std::string> names;
-  for (sv::FrameSet set : {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
-                           sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard, sv::FrameSet::kOblique})
+  for (sv::FrameSet set :
+       {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
+        sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard, sv::FrameSet::kOblique, sv::FrameSet::kPacked})
   {
     const std::string name = sv::toString(set);
     names.insert(name);
     EXPECT_EQ(sv::frameSetNamed(name), set) << name;
   }
-  EXPECT_EQ(names,
-            (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted", "approach_hard", "oblique"}));
+  EXPECT_EQ(names, (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted", "approach_hard",
+                                          "oblique", "packed"}));
   EXPECT_FALSE(sv::frameSetNamed("Main").has_value());
   EXPECT_FALSE(sv::frameSetNamed("").has_value());
 }
@@ -322,6 +323,24 @@ TEST(Scoring, TheTargetIsTheSpoolNearestThePullerColumn)
   EXPECT_FALSE(on_slot.correct);
   EXPECT_TRUE(on_slot.on_other_spool);
   EXPECT_EQ(sv::summarize({on_slot}).wrong_target.hits, 1);
+}
+
+TEST(Scoring, ABackRowSpoolIsNeverTheTarget)
+{
+  // The puller reaches the front row: a back-row spool right in front of it (its face seen in
+  // the gap beside the slot's spool) is another spool, and so are ties with it.
+  sv::GroundTruth t = slotSpool(420.0);  // about +7 deg
+  t.neighbours.push_back({circleAt(320.0, 280.0, 130.0), 1.05, bearingOf(320.0), true});
+  const auto target = sv::targetSpool(t);
+  ASSERT_TRUE(target);
+  EXPECT_TRUE(target->in_slot);
+
+  const sv::FrameScore on_back_row = sv::scoreFrame(t, flangeAt(circleOf(t.neighbours[0].flange), 1.05));
+  EXPECT_FALSE(on_back_row.correct);
+  EXPECT_TRUE(on_back_row.on_other_spool);
+  EXPECT_TRUE(on_back_row.neighbours_in_view);
+  EXPECT_NEAR(on_back_row.any_depth_error, 0.0, 1e-12);  // its depth is judged against its own truth
+  EXPECT_EQ(sv::summarize({on_back_row}).wrong_target.hits, 1);
 }
 
 TEST(Scoring, TwoSpoolsWithinOneDegreeOfTheSameBearingAreBothTheTarget)

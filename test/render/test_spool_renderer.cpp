@@ -902,3 +902,102 @@ TEST(WallPrint, HardScenesHaveMuralsOnHalfAndPrintsOnThreeInFour)
   for (int n : kinds)
     EXPECT_GT(n, 60);
 }
+
+// A packed shelf (packShelf, the packed set): 1-3 neighbours each side, their rims touching on
+// half the scenes; a back row on seven spool scenes in ten and on no negative's; the rest of the
+// scene as it was drawn.
+TEST(PackedShelf, NeighboursTouchOnHalfTheScenesAndABackRowStandsOnSevenInTen)
+{
+  int touching = 0;
+  int back_rows = 0;
+  for (std::uint64_t seed = 1; seed <= 400; ++seed)
+  {
+    const sv::SceneParams hard = sv::randomHardScene(sv::SceneKind::kSpool, seed);
+    sv::SceneParams packed = hard;
+    sv::packShelf(seed, packed);
+    std::array<int, 2> per_side{};
+    bool all_touch = true;
+    for (const sv::NeighbourSpool& n : packed.neighbours)
+    {
+      ++per_side[n.side < 0 ? 0 : 1];
+      all_touch &= n.gap == 0.0;
+      EXPECT_LE(n.gap, 0.015);
+    }
+    for (int count : per_side)
+    {
+      EXPECT_GE(count, 1);
+      EXPECT_LE(count, 3);
+    }
+    touching += all_touch ? 1 : 0;
+    if (packed.back_row.z > 0.0)
+    {
+      ++back_rows;
+      EXPECT_GE(packed.back_row.z, packed.bore_length);
+      EXPECT_LE(packed.back_row.z, packed.bore_length + 0.06);
+    }
+    EXPECT_EQ(packed.wall_prints.size(), hard.wall_prints.size());
+    EXPECT_EQ(packed.illuminance, hard.illuminance);
+    EXPECT_EQ(packed.wall_gap, hard.wall_gap);
+    sv::SceneParams plate = sv::randomHardScene(sv::SceneKind::kPlate, seed);
+    sv::packShelf(seed, plate);
+    EXPECT_EQ(plate.back_row.z, 0.0);
+  }
+  EXPECT_NEAR(touching / 400.0, 0.5, 0.07);
+  EXPECT_NEAR(back_rows / 400.0, 0.7, 0.07);
+}
+
+TEST(PackedShelf, TheBackRowStandsBehindTheGapsAndIsInTheTruth)
+{
+  const sv::CameraIntrinsics k = sv::CameraIntrinsics::thesisDefault(320, 240);
+  const sv::SpoolRenderer renderer(k);
+  const sv::SceneParams open = cleanScene();
+  sv::SceneParams deep = open;
+  deep.back_row.z = deep.bore_length + 0.03;
+  deep.back_row.offset = 0.19;
+  deep.back_row.gap = 0.02;
+  const sv::CameraPose p = pose(0.8);
+  const double depth = std::sqrt(0.64 - 0.06 * 0.06);
+
+  // Spools every 37 cm from x = 0.19 within 1 m of the slot: -0.92 ... 0.93, behind the front row.
+  const sv::GroundTruth gt = renderer.groundTruth(deep, p);
+  std::vector<double> xs;
+  for (const sv::NeighbourTruth& n : gt.neighbours)
+  {
+    ASSERT_TRUE(n.back_row);
+    EXPECT_NEAR(n.distance, depth + deep.back_row.z, 1e-9);
+    xs.push_back((n.flange.centre_x - k.cx) * n.distance / k.fx);
+  }
+  ASSERT_EQ(xs.size(), 6u);
+  for (std::size_t i = 0; i < xs.size(); ++i)
+    EXPECT_NEAR(xs[i], -0.92 + 0.37 * static_cast<double>(i), 1e-9);
+
+  // Just beside the slot's rim, at the axis' height: the wall of the open shelf, the back row's
+  // black face on the deep one.
+  const double u = k.cx + k.fx * 0.2 / depth;
+  const double v = k.cy + k.fy * 0.06 / depth;
+  EXPECT_LT(bilinear(grey(renderer.render(deep, p).image), u, v),
+            0.5 * bilinear(grey(renderer.render(open, p).image), u, v));
+
+  sv::SceneParams overlapping = deep;
+  overlapping.back_row.z = 0.5 * overlapping.bore_length;
+  EXPECT_THROW(renderer.render(overlapping, p), std::invalid_argument);
+}
+
+TEST(PackedShelf, ABackRowFlangeBehindTheBoreLeavesNoLensInIt)
+{
+  // As BoreShowsThroughOnlyNearTheAxis: on the axis, 6 cm above it, the lens shows; a back-row
+  // face 2 cm behind the bore's back end (its own hole 5 cm aside) leaves it dark.
+  const sv::SpoolRenderer renderer(sv::CameraIntrinsics::thesisDefault(640, 480));
+  const sv::SceneParams open = cleanScene();
+  sv::SceneParams deep = open;
+  deep.back_row.z = deep.bore_length + 0.02;
+  deep.back_row.offset = 0.05;
+  const sv::RenderedFrame lit = renderer.render(open, pose(0.55));
+  const sv::RenderedFrame dark = renderer.render(deep, pose(0.55));
+  ASSERT_TRUE(lit.truth.bore_visible);
+  EXPECT_FALSE(dark.truth.bore_visible);
+  EXPECT_EQ(dark.truth.hole_lit_fraction, 0.0);
+  const sv::ProjectedCircle& hole = *lit.truth.hole;
+  const double lens_at = hole.y - 0.8 * hole.r;
+  EXPECT_LT(bilinear(grey(dark.image), hole.x, lens_at), 0.5 * bilinear(grey(lit.image), hole.x, lens_at));
+}

@@ -41,6 +41,9 @@ enum class FrameSet
   /// towards it: a spool turned on its shelf looks the same), bearing within +-15 deg: the flange
   /// an ellipse 0.77-0.9 as wide as high, the back flange's silhouette beside it
   kOblique,
+  /// The hard set's frames on a packed shelf (packShelf): 1-3 neighbours each side, touching on
+  /// half the scenes, and on seven in ten a back row seen through the gaps (never the target)
+  kPacked,
 };
 
 /// The set's name, as spool_render's --set and the truth files' "set" write it ("main", ...).
@@ -83,6 +86,7 @@ struct SpoolTruth
   double distance = 0.0;  ///< m
   double yaw = 0.0;       ///< rad, bearing from the puller column
   bool in_slot = false;   ///< the slot's own spool (its hole and bore are in the ground truth)
+  bool back_row = false;  ///< behind the front row: never the target
 };
 
 /// Every spool of the frame (in view or not), the slot's spool first when there is one.
@@ -345,6 +349,7 @@ struct FrameCounts
   int hard = 200;       ///< hard set
   int distorted = 400;  ///< distorted set
   int oblique = 200;    ///< oblique set
+  int packed = 200;     ///< packed set
   int of(FrameSet set) const;
 };
 
@@ -376,7 +381,8 @@ struct EvaluationConfig
   std::vector<SetGroup> groups = {{"main + negatives", {FrameSet::kMain, FrameSet::kNegatives}},
                                   {"hard", {FrameSet::kHard}},
                                   {"distorted (C270 lens)", {FrameSet::kDistorted}, true},
-                                  {"oblique (25-40 deg off the axis)", {FrameSet::kOblique}}};
+                                  {"oblique (25-40 deg off the axis)", {FrameSet::kOblique}},
+                                  {"packed (touching neighbours, a back row)", {FrameSet::kPacked}}};
   std::uint64_t seed = 1;
   int pose_repeats = 3;  ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
   /// approach_hard sequences per size followed by the tracker (seeds seed * 1000 + 1, + 2, ...),

@@ -64,6 +64,16 @@ struct NeighbourSpool
   double depth_offset = 0.0;  ///< m, its flange face z (positive = set back)
 };
 
+/// A second row of spools behind the first (a deep shelf), of the target's make, their axes
+/// along z at the hole height, seen through the gaps between the front row's flanges.
+struct BackRow
+{
+  double z = 0.0;           ///< m, the z of its front flange faces; 0 = no back row, else > bore_length
+  double offset = 0.0;      ///< m, x of one of its spools' axes (the others every flange_diameter + gap)
+  double gap = 0.02;        ///< m, between neighbouring back-row flange rims
+  double half_width = 1.0;  ///< m, its spools stand with their axes within this of x = 0
+};
+
 /// A disc or ring hung on the back wall (clutter a detector must not take for a spool).
 struct WallMark
 {
@@ -123,6 +133,7 @@ struct SceneParams
   double label_radius = 0.11;  ///< m, label centre from the axis
 
   std::vector<NeighbourSpool> neighbours;
+  BackRow back_row;  ///< behind the front row (which holds the slot and its neighbours)
 
   // Negative objects (kPlate, kTapeRoll, kCan): size and position in the slot.
   double object_radius = 0.11;             ///< m
@@ -131,7 +142,7 @@ struct SceneParams
   cv::Vec3d object_colour{0.8, 0.8, 0.8};  ///< BGR reflectance
 
   // Shelf.
-  double wall_gap = 0.10;                   ///< m, back flange face to back wall
+  double wall_gap = 0.10;                   ///< m, back flange face (of the back row, if any) to back wall
   double board_front = -0.02;               ///< m, z of the shelf boards' front edge
   double board_thickness = 0.025;           ///< m
   double top_board_clearance = 0.08;        ///< m, flange top to the upper board
@@ -140,7 +151,7 @@ struct SceneParams
   /// Photograph-like prints on the back wall (later ones in front), drawn where no wall mark is
   /// and not within 12 cm of the target's axis (its bore's see-through shows the plain wall)
   std::vector<WallPrint> wall_prints;
-  std::vector<ShelfBox> boxes;              ///< clutter on the boards beside the slot
+  std::vector<ShelfBox> boxes;  ///< clutter on the boards beside the slot
 
   /// m, how far ahead of the camera the puller rod's tip reaches along the optical axis; the rod
   /// (kPullerDiameter, kPullerOffsetY below the camera) enters from the image bottom; 0 = out of view
@@ -191,6 +202,8 @@ struct NeighbourTruth
   ProjectedCircle flange;  ///< its front flange rim
   double distance = 0.0;   ///< m, depth: z of its flange face centre in the camera optical frame
   double yaw = 0.0;        ///< rad, bearing of its flange centre from the puller column
+  /// in the back row: behind the front row, so never the target (the puller reaches the front row)
+  bool back_row = false;
 };
 
 /// Exact ground truth of one rendered frame. Undefined numbers are NaN.
@@ -294,6 +307,13 @@ SceneParams randomScene(SceneKind kind, std::uint64_t seed);
 /// gamma, gain noise, white-balance error, vignetting, defocus, motion blur, MJPEG, glossy and
 /// ribbed faces, a dark bore interior, clutter and the puller rod (the hard set). Deterministic.
 SceneParams randomHardScene(SceneKind kind, std::uint64_t seed);
+
+/// Packs `scene`'s shelf as real shelves are (issue 28): 1-3 neighbours each side, their flange rims
+/// touching (half the scenes) or 2-15 mm apart, and on scenes with a spool in the slot, seven in
+/// ten, a back row 0-6 cm behind the front row's back flanges, set off by a random fraction of
+/// its pitch, its rims 0-5 cm apart. Draws from its own stream of `seed`: what it leaves alone
+/// keeps its values. Deterministic.
+void packShelf(std::uint64_t seed, SceneParams& scene);
 
 /// `truth` as a JSON object, keys in a fixed order; NaN and missing circles are null.
 nlohmann::ordered_json groundTruthJson(const GroundTruth& truth);
