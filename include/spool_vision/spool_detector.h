@@ -93,11 +93,10 @@ public:
   /// Least support of the hole rim of a spool found by the flange_retry search.
   static constexpr double kRetryHoleScore = 0.35;
   /// The search for a spool nearer the reference than the one taken (searchNearer()) asks its
-  /// flange for (1 - this) of its rim: a target whose rim touches its neighbours and has a back
-  /// row behind the gaps shows 40-50% of it against the wall and the boards (packed set seed 7
-  /// #56: 0.41). Its hole needs kNearerHoleScore of its rim: the ghosts such weak flanges admit
-  /// (arcs of a neighbour and the boards) came with hole rims of 0.37 (hard seed 7 #69), the
-  /// spools with 0.5 and up.
+  /// flange for (1 - this) of its rim: a grey or glossy face on a wall as light, or touching its
+  /// neighbours, shows a third to half of its rim (packed seed 7 #124 at 640x480: 0.34). Its hole
+  /// needs kNearerHoleScore of its rim: the ghosts such weak flanges admit (arcs of a neighbour
+  /// and the boards) came with hole rims of 0.37 (hard seed 7 #69), the spools with 0.5 and up.
   static constexpr double kNearerSensitivity = 0.7;
   static constexpr double kNearerHoleScore = 0.5;
   /// The smallest frame the detector accepts (each side, px).

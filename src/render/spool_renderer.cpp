@@ -167,6 +167,7 @@ double sceneIlluminance(const SceneParams& p)
 constexpr double kReferenceLux = 200.0;  // exposure that puts a 0.75 white wall near 190 DN
 constexpr double kAmbientFraction = 0.35;
 constexpr double kFrontCosine = 0.6;  // typical n.l of a face towards the camera
+constexpr int kAmbientRays = 16;      // rays per back-row point towards the room (reachingLight())
 
 // Front flange centres of the neighbour spools, packed outwards from the slot.
 std::vector<Vec3> neighbourCentres(const SceneParams& p)
@@ -218,6 +219,7 @@ struct SceneGeometry
   std::vector<Group> groups;
   std::vector<SpoolInfo> spools;
   int next_id = 0;
+  int back_row_id = -1;  // the first id of the back row's primitives (lit through the front row), -1: none
 };
 
 // --- the scene description ---------------------------------------------------------------
@@ -355,6 +357,8 @@ SceneGeometry sceneGeometry(const SceneParams& p)
   int count = 0;
   for (const Vec3& centre : neighbourCentres(p))
     addSpool(p, centre.x(), centre.z(), p.label_angle + 1.7 * ++count, geometry);
+  if (p.back_row.z > 0.0)
+    geometry.back_row_id = geometry.next_id;
   for (const Vec3& centre : backRowCentres(p))
     addSpool(p, centre.x(), centre.z(), p.label_angle + 2.3 * ++count, geometry);
   return geometry;
@@ -521,6 +525,18 @@ public:
   // is the pixel's size (m) at the hit, for textures that filter themselves.
   Vec3 shade(const Vec3& o, const Vec3& d, const Hit& hit, double footprint, int& sub) const
   {
+    const Vec3 lit = unshadowed(o, d, hit, footprint, sub);
+    if (geometry_.back_row_id < 0 || hit.id < geometry_.back_row_id || hit.id >= geometry_.next_id)
+      return lit;
+    const double open = diffuse(hit.normal);
+    return open > 0.0 ? lit * (reachingLight(o + hit.t * d, hit.normal) / open) : lit;
+  }
+
+private:
+  // shade() as if nothing stood between the surface and the lamps or the room: true of the front
+  // row, the shelf and the wall (whose board shadows wallRadiance() sets), not of the back row.
+  Vec3 unshadowed(const Vec3& o, const Vec3& d, const Hit& hit, double footprint, int& sub) const
+  {
     sub = 0;
     const Vec3 pt = o + hit.t * d;
     const Vec3 view = -d.normalized();
@@ -558,7 +574,39 @@ public:
     return Vec3::Zero();
   }
 
-private:
+  // Whether anything of the scene lies along the ray from `pt` towards `direction` (unit).
+  bool blocked(const Vec3& pt, const Vec3& direction) const
+  {
+    return castRay(geometry_, camera_, 0.0, pt + 1e-4 * direction, direction).t < kInf;
+  }
+
+  // diffuse() at `pt` for what reaches it past the scene's geometry: each lamp only where its
+  // shadow ray is free, the room's ambient light in the share of kAmbientRays (cosine-weighted
+  // about the normal) that leave the shelf. A back-row face sees the lamps and the room only
+  // through the gaps between the front row's flanges and under the upper board.
+  double reachingLight(const Vec3& pt, const Vec3& n) const
+  {
+    double direct = 0.0;
+    for (int i = 0; i < 3; ++i)
+      if (lamp_weight_[i] > 0.0 && n.dot(lampDirections()[i]) > 0.0 && !blocked(pt, lampDirections()[i]))
+        direct += lamp_weight_[i] * n.dot(lampDirections()[i]);
+    // Any two unit vectors across the normal: the hemisphere's samples are symmetric about it.
+    const Vec3 a = std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+    const Vec3 u = n.cross(a).normalized();
+    const Vec3 w = n.cross(u);
+    int open = 0;
+    for (int k = 0; k < kAmbientRays; ++k)
+    {
+      // Fibonacci points on the disc, lifted onto the hemisphere: cosine-weighted directions.
+      const double r = std::sqrt((k + 0.5) / kAmbientRays);
+      const double phi = k * 2.399963229728653;
+      const Vec3 dir = r * std::cos(phi) * u + r * std::sin(phi) * w + std::sqrt(1.0 - r * r) * n;
+      open += blocked(pt, dir) ? 0 : 1;
+    }
+    const double ambient = static_cast<double>(open) / kAmbientRays;
+    return light_scale_ * (kAmbientFraction * ambient + (1.0 - kAmbientFraction) * direct / kFrontCosine);
+  }
+
   // The wall behind the shelf: a faint pattern or the topmost print, shaded under and over the
   // boards. A print's border is a surface edge (anti-aliased); its inside filters itself.
   Vec3 wallRadiance(const Vec3& pt, const Hit& hit, double footprint, int& sub) const

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <string>
+#include <tuple>
 
 #include "spool_vision/eval/evaluation.h"
 
@@ -304,22 +305,30 @@ TEST(FailureKinds, AFaintRingAboutALighterPatchIsNoBore)
   expectTargetFlange(7, 79, 200, FrameSet::kOblique);
 }
 
-// A packed shelf (packed set): the target's rim touches its neighbours' and a back row fills the
-// gaps behind, so only its arcs against the wall and the boards have edges (0.41 of the rim on
-// seed 7 #56 at 640x480, under the 0.45 asked) and a spool 12-19 deg off was reported. The search
-// for a nearer spool with less rim support asked finds it (SpoolDetector::searchNearer()).
-// Ghosts that search admits need a hole rim of kNearerHoleScore and their whole rim in view: a
-// negative frame's 0.31 circle of board and neighbour arcs about a wall mark (seed 13 #19) is
-// no spool.
-TEST(FailureKinds, ATargetTouchingItsNeighboursIsNotPassedOverForOneFartherOff)
+// A weak rim in front, a solid one beside it: the spool nearest the reference has a grey or
+// glossy face on a wall as light, or a back row behind its touching neighbours, and scores under
+// the least rim support, so a spool 10-20 deg off was reported (packed seed 7 #124 at 640x480 and
+// seed 13 #124 at 160x120, hard seed 7 #135 at 160x120, oblique seed 7 #86 at 640x480). The search
+// for a spool nearer the reference with less rim support asked finds it
+// (SpoolDetector::searchNearer()). The ghosts that search admits need a hole rim of
+// kNearerHoleScore (a 0.37 ring made one 0.44 m deep on hard seed 7 #69, a negative) and their
+// whole rim in view (board and neighbour arcs cut by the border closed a 0.31 circle about a wall
+// mark on packed seed 13 #19, a negative).
+TEST(FailureKinds, AWeakRimInFrontIsNotPassedOverForASolidOneFartherOff)
 {
-  expectTargetFlange(7, 56, 200, FrameSet::kPacked);
   expectTargetFlange(7, 124, 200, FrameSet::kPacked);
-  expectTargetFlange(11, 160, 200, FrameSet::kPacked);
-  expectTargetFlange(7, 159, 200, FrameSet::kPacked, 160);
-  SpoolDetector detector;
-  const RenderedFrame frame = renderSetFrame(FrameSet::kPacked, 13, 19, 200, 640, detector);
-  const spool_vision::FrameScore score =
-      spool_vision::scoreFrame(frame.truth, detector.detect(frame.image, PixelFormat::kBgr8));
-  EXPECT_FALSE(std::abs(score.any_depth_error) > spool_vision::kAbsurdDepthError) << score.any_depth_error;
+  expectTargetFlange(13, 124, 200, FrameSet::kPacked, 160);
+  expectTargetFlange(7, 135, 200, FrameSet::kHard, 160);
+  expectTargetFlange(7, 86, 200, FrameSet::kOblique);
+  for (const auto& [set, seed, index] : {std::tuple{FrameSet::kHard, 7, 69}, std::tuple{FrameSet::kPacked, 13, 19}})
+  {
+    SCOPED_TRACE(std::string(spool_vision::toString(set)) + " seed " + std::to_string(seed) + " #" +
+                 std::to_string(index));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(set, seed, index, 200, 640, detector);
+    const spool_vision::FrameScore score =
+        spool_vision::scoreFrame(frame.truth, detector.detect(frame.image, PixelFormat::kBgr8));
+    // No detection, or one within 10% of the depth of the spool it lies on.
+    EXPECT_FALSE(std::abs(score.any_depth_error) > spool_vision::kAbsurdDepthError) << score.any_depth_error;
+  }
 }

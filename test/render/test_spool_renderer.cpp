@@ -978,6 +978,15 @@ TEST(PackedShelf, TheBackRowStandsBehindTheGapsAndIsInTheTruth)
   EXPECT_LT(bilinear(grey(renderer.render(deep, p).image), u, v),
             0.5 * bilinear(grey(renderer.render(open, p).image), u, v));
 
+  // With the front row's rims touching, the back row is seen in the gaps beside the contact (here
+  // 12 cm above it, 6 cm above the camera) and lies in the front row's shade: darker by half than
+  // the slot's face of the same plastic, which the lamps and the room light.
+  sv::SceneParams packed = deep;
+  packed.neighbours = {{-1, 0.0, 0.0}, {1, 0.0, 0.0}};
+  const cv::Mat packed_image = grey(renderer.render(packed, p).image);
+  EXPECT_LT(bilinear(packed_image, k.cx + k.fx * 0.175 / depth, k.cy - k.fy * 0.06 / depth),
+            0.5 * bilinear(packed_image, k.cx + k.fx * 0.1 / depth, v));
+
   sv::SceneParams overlapping = deep;
   overlapping.back_row.z = 0.5 * overlapping.bore_length;
   EXPECT_THROW(renderer.render(overlapping, p), std::invalid_argument);
