@@ -191,6 +191,13 @@ public:
   /// accumulator that one left, which halves the voting of a second search. Only peaks centred
   /// in `centres` (px; empty = anywhere) are measured. Throws std::logic_error when `search`
   /// does not match the last detect()'s accumulator.
+  /// detect()'s circles again from the votes the last detect() of `search`'s radii, window and
+  /// polarity cast on the same `edges`, asking `search.min_score` of a rim (a second look at
+  /// weaker rims without voting again); only peaks centred in `centres` (px; empty = anywhere) are
+  /// measured. Throws std::logic_error when the votes are of another search (or of either
+  /// polarity since).
+  void detectAgain(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                   const cv::Rect2d& centres, std::vector<Circle>& circles);
   void detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                             const cv::Rect2d& centres, std::vector<Circle>& circles);
 
@@ -248,6 +255,8 @@ private:
     float votes;
   };
   void vote(const std::vector<EdgePoint>& edges, const HoughSearch& search);
+  /// Throws std::logic_error naming `caller` unless the votes are the last detect()'s of `search`.
+  void requireVotesOf(const HoughSearch& search, const char* caller) const;
   /// The circles at the accumulator's peaks centred in `centres` (empty = anywhere): radius,
   /// fit, score and duplicates (detect()).
   void circlesFromVotes(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,

@@ -223,9 +223,10 @@ private:
   cv::Rect2d centresCostingLess(const cv::Point2d& reference, const HoughSearch& flange_search,
                                 const HoughSearch& hole_search, double cost) const;
   /// A spool nearer the reference than the one taken (costing `cost`) whose rim the flange search
-  /// missed: that search again over centresCostingLess(), its least rim score lowered to
-  /// 1 - kNearerSensitivity, each spool needing a hole rim of kNearerHoleScore. Replaces `result`
-  /// and returns true when its target costs less than `cost`.
+  /// missed: that search's votes measured again over centresCostingLess(), its least rim score
+  /// lowered to 1 - kNearerSensitivity, each spool needing a hole rim of kNearerHoleScore and its
+  /// whole rim in the frame. Right after flange_hough_.detect() of `flange_search`. Replaces
+  /// `result` and returns true when its target costs less than `cost`.
   bool searchNearer(const cv::Point2d& reference, const HoughSearch& flange_search, const HoughSearch& hole_search,
                     double cost, SpoolDetection& result);
   /// `flange`'s spool: the flange (measured again about the hole when the fit was off it) and a

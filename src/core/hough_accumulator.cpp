@@ -1108,13 +1108,27 @@ void HoughAccumulator::detect(const std::vector<EdgePoint>& edges, cv::Size imag
   circlesFromVotes(edges, image_size, search, {}, circles);
 }
 
+void HoughAccumulator::requireVotesOf(const HoughSearch& search, const char* caller) const
+{
+  if (search.r_min != voted_.r_min || search.r_max != voted_.r_max || search.center_window != voted_.center_window ||
+      search.polarity != voted_.polarity)
+    throw std::logic_error(std::string("HoughAccumulator::") + caller + ": the last detect() was of another search");
+}
+
+void HoughAccumulator::detectAgain(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                                   const cv::Rect2d& centres, std::vector<Circle>& circles)
+{
+  requireVotesOf(search, "detectAgain");
+  circles.clear();
+  if (has_votes_)
+    circlesFromVotes(edges, image_size, search, centres, circles);
+}
+
 void HoughAccumulator::detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size,
                                             const HoughSearch& search, const cv::Rect2d& centres,
                                             std::vector<Circle>& circles)
 {
-  if (search.r_min != voted_.r_min || search.r_max != voted_.r_max || search.center_window != voted_.center_window ||
-      search.polarity != voted_.polarity)
-    throw std::logic_error("HoughAccumulator::detectEitherPolarity: the last detect() was of another search");
+  requireVotesOf(search, "detectEitherPolarity");
   circles.clear();
   if (!has_votes_)
     return;  // detect() found nothing to vote with

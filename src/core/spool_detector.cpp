@@ -200,14 +200,14 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const bool retry = !along_rim && hp.flange_retry == FlangeRetry::kAnyPolarity &&
                      params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
                      !(cost <= result.flange.r);
-  const bool either = retry && searchEitherPolarity(reference, flange_search, hole_search, cost, result);
-  // The spool taken so far, when one costing less could be beside it, then searched for with less
-  // rim support asked.
-  const double taken = result.hole_detected ? ConcentricMatcher::targetCost({result.hole.x, result.hole.y},
-                                                                            result.flange.score, reference)
-                                            : kNoMatch;
-  const bool nearer = retry && whole_frame && std::isfinite(taken) && !(taken <= result.flange.r) &&
-                      searchNearer(reference, flange_search, hole_search, taken, result);
+  // A spool taken, when one costing less could be beside it: first sought with less rim support
+  // asked, then with either polarity.
+  const bool nearer =
+      retry && whole_frame && std::isfinite(cost) && searchNearer(reference, flange_search, hole_search, cost, result);
+  const double taken =
+      nearer ? ConcentricMatcher::targetCost({result.hole.x, result.hole.y}, result.flange.score, reference) : cost;
+  const bool either = retry && !(taken <= result.flange.r) &&
+                      searchEitherPolarity(reference, flange_search, hole_search, taken, result);
   const bool oblique =
       !either && !nearer && !along_rim && whole_frame &&
       obliqueSpool(image, format, reference, hole_search, result.hole_detected ? cost : kNoMatch, result);
@@ -221,7 +221,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   }
   else
   {
-    gatherRim(result, either && !nearer ? Polarity::kAny : flange_search.polarity);
+    gatherRim(result, either ? Polarity::kAny : flange_search.polarity);
     if (oblique)
       takeObliqueRim();
   }
@@ -444,14 +444,15 @@ bool SpoolDetector::searchNearer(const cv::Point2d& reference, const HoughSearch
   // less rim support asked; such a weak rim is a spool only with a hole rim of kNearerHoleScore
   // and (nearly) all of it in the frame (arcs of the boards and of a neighbour cut by the border
   // closed a ghost of 0.31 about a wall mark: packed seed 13 #19).
+  // The first search's votes, measured again where such a spool's centre can lie.
   HoughSearch relaxed = flange_search;
   relaxed.min_score = std::min(relaxed.min_score, 1.0 - kNearerSensitivity);
-  relaxed.center_window = centresCostingLess(reference, flange_search, hole_search, cost);
   HoughSearch strict = hole_search;
   strict.min_score = std::max(hole_search.min_score, kNearerHoleScore);
   first_holes_ = holes_;
   first_flanges_ = flanges_;
-  flange_hough_.detect(edges_, preprocessed_.size(), relaxed, flanges_);
+  flange_hough_.detectAgain(edges_, preprocessed_.size(), relaxed,
+                            centresCostingLess(reference, flange_search, hole_search, cost), flanges_);
   SpoolDetection second;
   if (selectTarget(reference, flange_search, strict, SpoolEvidence::kHole, cost, second) < cost &&
       second.flange.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction)

@@ -233,6 +233,54 @@ TEST(HoughAccumulator, EitherPolarityAfterADarkSearchEqualsAnAnySearch)
   EXPECT_TRUE(either.empty());
 }
 
+TEST(HoughAccumulator, DetectAgainFindsAWeakRimFromTheSameVotes)
+{
+  // A whole dark disc and one whose rim shows only on its top 30% (a band of its own grey
+  // covers the rest, as a touching neighbour's face does): asked for 0.45 of a rim, the search
+  // finds the whole one; the same votes asked for 0.25 about the other find it too.
+  SceneStyle style;
+  style.background = 150;
+  style.flange = 40;
+  cv::Mat img = drawSceneGray({320, 160}, {{80, 80, 40, 0}, {230, 80, 40, 0}}, style);
+  cv::rectangle(img, cv::Point(170, 56), cv::Point(300, 159), cv::Scalar(40), cv::FILLED);
+  cv::GaussianBlur(img, img, cv::Size(), 1.0);
+  const std::vector<EdgePoint> edges = edgesOf(img, 0.05);
+  HoughSearch search;
+  search.r_min = 30;
+  search.r_max = 50;
+  search.polarity = Polarity::kDark;
+  search.min_score = 0.45;
+  HoughAccumulator hough;
+  std::vector<Circle> strong;
+  hough.detect(edges, img.size(), search, strong);
+  ASSERT_EQ(strong.size(), 1u);
+  EXPECT_NEAR(strong[0].x, 80, 0.5);
+
+  HoughSearch weaker = search;
+  weaker.min_score = 0.25;
+  std::vector<Circle> again;
+  const cv::Rect2d centres(190, 40, 80, 80);
+  hough.detectAgain(edges, img.size(), weaker, centres, again);
+  ASSERT_FALSE(again.empty());
+  // Best first; only peaks centred where asked are measured (the band's corner closes a weaker
+  // ghost there), whose fits move them by a few px at most.
+  const cv::Rect2d near_centres(centres.x - 4.0, centres.y - 4.0, centres.width + 8.0, centres.height + 8.0);
+  for (const Circle& c : again)
+    EXPECT_TRUE(near_centres.contains(cv::Point2d(c.x, c.y))) << c.x << ", " << c.y;
+  EXPECT_NEAR(again[0].x, 230, 1.0);
+  EXPECT_NEAR(again[0].y, 80, 1.0);
+  EXPECT_NEAR(again[0].r, 40, 1.0);
+  EXPECT_LT(again[0].score, 0.45);
+
+  // Only the votes of that search: not another radius range, nor after the other polarity's.
+  HoughSearch other = weaker;
+  other.r_max = 45;
+  EXPECT_THROW(hough.detectAgain(edges, img.size(), other, {}, again), std::logic_error);
+  std::vector<Circle> either;
+  hough.detectEitherPolarity(edges, img.size(), search, {}, either);
+  EXPECT_THROW(hough.detectAgain(edges, img.size(), weaker, {}, again), std::logic_error);
+}
+
 TEST(HoughAccumulator, FindsAnArcCutByTheFrameBorder)
 {
   // Centre 40 px right of the image, radius 120: about 40% of the rim is in view.

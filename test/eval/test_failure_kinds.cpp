@@ -308,7 +308,7 @@ TEST(FailureKinds, AFaintRingAboutALighterPatchIsNoBore)
 // A weak rim in front, a solid one beside it: the spool nearest the reference has a grey or
 // glossy face on a wall as light, or a back row behind its touching neighbours, and scores under
 // the least rim support, so a spool 10-20 deg off was reported (packed seed 7 #124 at 640x480 and
-// seed 13 #124 at 160x120, hard seed 7 #135 at 160x120, oblique seed 7 #86 at 640x480). The search
+// seed 13 #124 at 160x120, hard seed 7 #135 at 160x120, oblique seed 11 #91 at 640x480). The search
 // for a spool nearer the reference with less rim support asked finds it
 // (SpoolDetector::searchNearer()). The ghosts that search admits need a hole rim of
 // kNearerHoleScore (a 0.37 ring made one 0.44 m deep on hard seed 7 #69, a negative) and their
@@ -319,7 +319,7 @@ TEST(FailureKinds, AWeakRimInFrontIsNotPassedOverForASolidOneFartherOff)
   expectTargetFlange(7, 124, 200, FrameSet::kPacked);
   expectTargetFlange(13, 124, 200, FrameSet::kPacked, 160);
   expectTargetFlange(7, 135, 200, FrameSet::kHard, 160);
-  expectTargetFlange(7, 86, 200, FrameSet::kOblique);
+  expectTargetFlange(11, 91, 200, FrameSet::kOblique);
   for (const auto& [set, seed, index] : {std::tuple{FrameSet::kHard, 7, 69}, std::tuple{FrameSet::kPacked, 13, 19}})
   {
     SCOPED_TRACE(std::string(spool_vision::toString(set)) + " seed " + std::to_string(seed) + " #" +
