@@ -192,9 +192,11 @@ std::vector<Vec3> backRowCentres(const SceneParams& p)
   if (row.z <= 0.0)
     return centres;
   const double pitch = p.flange_diameter + row.gap;
-  for (double x = row.offset - pitch * std::floor((row.offset + row.half_width) / pitch); x <= row.half_width;
-       x += pitch)
-    centres.emplace_back(x, SpoolRenderer::kHoleHeight, row.z);
+  // Spool k (k = first, first + 1, ...) stands at offset + k pitch.
+  const int first = static_cast<int>(std::ceil((-row.half_width - row.offset) / pitch));
+  const int last = static_cast<int>(std::floor((row.half_width - row.offset) / pitch));
+  for (int k = first; k <= last; ++k)
+    centres.emplace_back(row.offset + k * pitch, SpoolRenderer::kHoleHeight, row.z);
   return centres;
 }
 

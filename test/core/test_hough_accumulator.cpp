@@ -42,6 +42,16 @@ std::vector<EdgePoint> blurredEdgesOf(const cv::Mat& gray, double threshold = 0.
   return edgesOf(smooth, threshold);
 }
 
+// A search for dark rims of r_min..r_max px anywhere.
+HoughSearch darkSearch(double r_min, double r_max)
+{
+  HoughSearch search;
+  search.r_min = r_min;
+  search.r_max = r_max;
+  search.polarity = Polarity::kDark;
+  return search;
+}
+
 std::vector<Circle> find(const cv::Mat& gray, double r_min, double r_max, Polarity polarity,
                          cv::Rect2d window = cv::Rect2d(), double threshold = 0.05)
 {
@@ -187,10 +197,7 @@ TEST(HoughAccumulator, EitherPolarityAfterADarkSearchEqualsAnAnySearch)
   cv::circle(img, {220, 80}, 30, cv::Scalar(220), cv::FILLED, cv::LINE_AA);
   cv::GaussianBlur(img, img, cv::Size(), 1.0);
   const std::vector<EdgePoint> edges = edgesOf(img, 0.05);
-  HoughSearch search;
-  search.r_min = 20;
-  search.r_max = 40;
-  search.polarity = Polarity::kDark;
+  const HoughSearch search = darkSearch(20, 40);
   HoughAccumulator hough;
   std::vector<Circle> dark;
   hough.detect(edges, img.size(), search, dark);
@@ -245,10 +252,7 @@ TEST(HoughAccumulator, DetectAgainFindsAWeakRimFromTheSameVotes)
   cv::rectangle(img, cv::Point(170, 56), cv::Point(300, 159), cv::Scalar(40), cv::FILLED);
   cv::GaussianBlur(img, img, cv::Size(), 1.0);
   const std::vector<EdgePoint> edges = edgesOf(img, 0.05);
-  HoughSearch search;
-  search.r_min = 30;
-  search.r_max = 50;
-  search.polarity = Polarity::kDark;
+  HoughSearch search = darkSearch(30, 50);
   search.min_score = 0.45;
   HoughAccumulator hough;
   std::vector<Circle> strong;
