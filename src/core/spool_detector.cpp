@@ -201,12 +201,14 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                      params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
                      !(cost <= result.flange.r);
   // A spool taken, when one costing less could be beside it: first sought with less rim support
-  // asked, then with either polarity.
+  // asked, then with either polarity, also after a nearer spool was found (its weak circle may be
+  // the joint silhouette of its two flanges, its front rim the other polarity's: oblique seed 13
+  // #191).
   const bool nearer =
       retry && whole_frame && std::isfinite(cost) && searchNearer(reference, flange_search, hole_search, cost, result);
   const double taken =
       nearer ? ConcentricMatcher::targetCost({result.hole.x, result.hole.y}, result.flange.score, reference) : cost;
-  const bool either = retry && !(taken <= result.flange.r) &&
+  const bool either = retry && (nearer || !(taken <= result.flange.r)) &&
                       searchEitherPolarity(reference, flange_search, hole_search, taken, result);
   const bool oblique =
       !either && !nearer && !along_rim && whole_frame &&
