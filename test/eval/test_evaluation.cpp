@@ -650,7 +650,8 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
   good.metrics.axis_angle_error_deg = {0.3, 0.9, 100, 100};
   good.metrics.unsafe_aligned = {0, 900};
   good.metrics.aligned_recall = {48, 50};
-  const sv::SetupResult all_good{{good, good, good, good}, {}};  // main + negatives, hard, distorted, oblique
+  // main + negatives, hard, distorted, oblique, packed
+  const sv::SetupResult all_good{{good, good, good, good, good}, {}};
   r.setups = {all_good, all_good, all_good};
   auto reset = [&] { r.setups = {all_good, all_good, all_good}; };
   for (size_t s = 0; s < 3; ++s)
@@ -996,14 +997,14 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
                    {160, 120},
                    config("seed.yaml"),
                    sv::QualityBars::thesisReproduction(),
-                   {12, 6, 4, 6, 4},
+                   {12, 6, 4, 6, 4, 4},
                    true,
                    false},
                   {"default.yaml @ 160x120",
                    {160, 120},
                    config("default.yaml"),
                    sv::QualityBars::forDefault({160, 120}),
-                   {6, 3, 2, 3, 2},
+                   {6, 3, 2, 3, 2, 2},
                    false,
                    true}};
   small.pose_repeats = 1;
@@ -1012,7 +1013,7 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
   EXPECT_GT(progress_calls, 18);
   ASSERT_EQ(r.setups.size(), 2u);
-  ASSERT_EQ(r.setups[0].per_group.size(), 4u);  // main + negatives, hard, distorted, oblique
+  ASSERT_EQ(r.setups[0].per_group.size(), 5u);  // main + negatives, hard, distorted, oblique, packed
   EXPECT_EQ(r.setups[0].per_group[0].frames, 18);
   EXPECT_EQ(r.setups[0].per_group[0].metrics.time_ms.count, 18);
   EXPECT_EQ(r.setups[0].per_group[1].frames, 4);
@@ -1022,6 +1023,8 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   EXPECT_EQ(r.setups[1].per_group[1].frames, 2);
   EXPECT_EQ(r.setups[1].per_group[2].frames, 3);
   EXPECT_EQ(r.setups[1].per_group[3].frames, 2);
+  EXPECT_EQ(r.setups[0].per_group[4].frames, 4);
+  EXPECT_EQ(r.setups[1].per_group[4].frames, 2);
   EXPECT_TRUE(r.setups[0].approaches.empty());
   ASSERT_EQ(r.setups[1].approaches.size(), 1u);
   EXPECT_EQ(r.setups[1].approaches[0].frames, sv::EvaluationConfig::kApproachFrames);
@@ -1057,10 +1060,11 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   std::ifstream in(dir / "report.md");
   std::stringstream md;
   md << in.rdbuf();
-  for (const char* heading : {"## Headline", "hard set", "## Pose and alignment", "distorted (C270 lens) set",
-                              "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization",
-                              "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r",
-                              "## The tracker over whole approaches", "default.yaml @ 160x120 | 1001"})
+  for (const char* heading :
+       {"## Headline", "hard set", "packed (touching neighbours, a back row) set", "## Pose and alignment",
+        "distorted (C270 lens) set", "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization",
+        "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r",
+        "## The tracker over whole approaches", "default.yaml @ 160x120 | 1001"})
     EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
   // The charts' data: one chart per PNG the report shows, its points the tables' numbers.
   const nlohmann::json charts = nlohmann::json::parse(std::ifstream(dir / "charts.json"))["charts"];
