@@ -186,11 +186,6 @@ public:
   /// Detected circles, best first. `image_size` bounds the visible rim.
   void detect(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
               std::vector<Circle>& circles);
-  /// detect()'s circles for `search` with polarity any, right after a detect() of `search` (dark
-  /// or bright) on the same `edges`: only the other polarity's votes are cast, onto the
-  /// accumulator that one left, which halves the voting of a second search. Only peaks centred
-  /// in `centres` (px; empty = anywhere) are measured. Throws std::logic_error when `search`
-  /// does not match the last detect()'s accumulator.
   /// detect()'s circles again from the votes the last detect() of `search`'s radii, window and
   /// polarity cast on the same `edges`, asking `search.min_score` of a rim (a second look at
   /// weaker rims without voting again); only peaks centred in `centres` (px; empty = anywhere) are
@@ -198,6 +193,11 @@ public:
   /// polarity since).
   void detectAgain(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                    const cv::Rect2d& centres, std::vector<Circle>& circles);
+  /// detect()'s circles for `search` with polarity any, right after a detect() of `search` (dark
+  /// or bright) on the same `edges`: only the other polarity's votes are cast, onto the
+  /// accumulator that one left, which halves the voting of a second search. Only peaks centred
+  /// in `centres` (px; empty = anywhere) are measured. Throws std::logic_error when `search`
+  /// does not match the last detect()'s accumulator.
   void detectEitherPolarity(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                             const cv::Rect2d& centres, std::vector<Circle>& circles);
 

@@ -226,9 +226,9 @@ private:
   /// missed: that search's votes measured again over centresCostingLess(), its least rim score
   /// lowered to 1 - kNearerSensitivity, each spool needing a hole rim of kNearerHoleScore and its
   /// whole rim in the frame. Right after flange_hough_.detect() of `flange_search`. Replaces
-  /// `result` and returns true when its target costs less than `cost`.
+  /// `result` and `cost` (with its target's) and returns true when its target costs less than `cost`.
   bool searchNearer(const cv::Point2d& reference, const HoughSearch& flange_search, const HoughSearch& hole_search,
-                    double cost, SpoolDetection& result);
+                    double& cost, SpoolDetection& result);
   /// `flange`'s spool: the flange (measured again about the hole when the fit was off it) and a
   /// hole found in `hole_search` that passes the concentric rule; nullopt when none does.
   std::optional<SpoolMatch> matchSpool(const Circle& flange, const HoughSearch& hole_search,

@@ -204,10 +204,9 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // asked, then with either polarity, also after a nearer spool was found (its weak circle may be
   // the joint silhouette of its two flanges, its front rim the other polarity's: oblique seed 13
   // #191).
+  double taken = cost;
   const bool nearer =
-      retry && whole_frame && std::isfinite(cost) && searchNearer(reference, flange_search, hole_search, cost, result);
-  const double taken =
-      nearer ? ConcentricMatcher::targetCost({result.hole.x, result.hole.y}, result.flange.score, reference) : cost;
+      retry && whole_frame && std::isfinite(cost) && searchNearer(reference, flange_search, hole_search, taken, result);
   const bool either = retry && (nearer || !(taken <= result.flange.r)) &&
                       searchEitherPolarity(reference, flange_search, hole_search, taken, result);
   const bool oblique =
@@ -438,15 +437,15 @@ cv::Rect2d SpoolDetector::centresCostingLess(const cv::Point2d& reference, const
 }
 
 bool SpoolDetector::searchNearer(const cv::Point2d& reference, const HoughSearch& flange_search,
-                                 const HoughSearch& hole_search, double cost, SpoolDetection& result)
+                                 const HoughSearch& hole_search, double& cost, SpoolDetection& result)
 {
   // Where a rim borders other dark flanges all round (touching neighbours, a back row behind the
   // gaps) only its arcs against the wall and the boards have edges: it scores under the least
   // support, and a spool farther off is taken. Sought again where a spool could cost less, with
   // less rim support asked; such a weak rim is a spool only with a hole rim of kNearerHoleScore
   // and (nearly) all of it in the frame (arcs of the boards and of a neighbour cut by the border
-  // closed a ghost of 0.31 about a wall mark: packed seed 13 #19).
-  // The first search's votes, measured again where such a spool's centre can lie.
+  // closed a ghost of 0.31 about a wall mark: packed seed 13 #19). The first search's votes are
+  // measured again where such a spool's centre can lie.
   HoughSearch relaxed = flange_search;
   relaxed.min_score = std::min(relaxed.min_score, 1.0 - kNearerSensitivity);
   HoughSearch strict = hole_search;
@@ -456,10 +455,11 @@ bool SpoolDetector::searchNearer(const cv::Point2d& reference, const HoughSearch
   flange_hough_.detectAgain(edges_, preprocessed_.size(), relaxed,
                             centresCostingLess(reference, flange_search, hole_search, cost), flanges_);
   SpoolDetection second;
-  if (selectTarget(reference, flange_search, strict, SpoolEvidence::kHole, cost, second) < cost &&
-      second.flange.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction)
+  const double second_cost = selectTarget(reference, flange_search, strict, SpoolEvidence::kHole, cost, second);
+  if (second_cost < cost && second.flange.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction)
   {
     result = second;
+    cost = second_cost;
     return true;
   }
   holes_ = first_holes_;

@@ -987,13 +987,13 @@ struct OpeningView
   bool occluded = false;
 };
 
-// True where the ray from the camera along `d` meets a back-row spool's front flange face (black:
-// the bore's see-through shows no light there).
-bool backRowBlocks(const SceneParams& scene, const CameraFrame& cam, const Vec3& d)
+// True where the ray from the camera along `d` meets the front flange face of a back-row spool
+// (`back_row`: their centres), which is black: the bore's see-through shows no light there.
+bool backRowBlocks(const SceneParams& scene, const std::vector<Vec3>& back_row, const CameraFrame& cam, const Vec3& d)
 {
   const double big = 0.5 * scene.flange_diameter;
   const double hole = 0.5 * scene.hole_diameter;
-  for (const Vec3& centre : backRowCentres(scene))
+  for (const Vec3& centre : back_row)
   {
     const Vec3 r = cam.centre + d * ((centre.z() - cam.centre.z()) / d.z());
     const double off = std::hypot(r.x() - centre.x(), r.y() - centre.y());
@@ -1011,6 +1011,7 @@ OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const
   OpeningView view;
   int total = 0;
   std::vector<cv::Point3d> lens;  // camera frame
+  const std::vector<Vec3> back_row = backRowCentres(scene);
   for (int i = 0; i < kGrid; ++i)
     for (int j = 0; j < kGrid; ++j)
     {
@@ -1024,7 +1025,8 @@ OpeningView openingView(const CameraIntrinsics& k, const CameraFrame& cam, const
       const Vec3 pc = world_to_cam * d;
       view.occluded |= pullerRodHit(pc, scene.puller_rod_length) < 1.0;
       const Vec3 q = cam.centre + d * ((scene.bore_length - cam.centre.z()) / d.z());
-      if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius && !backRowBlocks(scene, cam, d))
+      if (std::hypot(q.x(), q.y() - SpoolRenderer::kHoleHeight) <= hole_radius &&
+          !backRowBlocks(scene, back_row, cam, d))
         lens.emplace_back(pc.x(), pc.y(), pc.z());
     }
   view.lit_fraction = total > 0 ? static_cast<double>(lens.size()) / total : 0.0;
