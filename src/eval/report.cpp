@@ -320,7 +320,7 @@ std::vector<BarRow> headlineRows(const EvaluationResult& result, size_t group)
   auto relative = [](double v) { return percent(v, 2); };
   auto degrees = [](double v) { return fixed(v, 3) + "°"; };
   auto ms = [](double v) { return fixed(v, 2) + " ms"; };
-  add("flange found (target: half its rim in view, 50-110 cm, ±20°, all lamps)",
+  add("flange found (target: half its rim in view, 50-110 cm, ±20°, ≤ 40° off its axis, all lamps)",
       [](const QualityBars& b, const GroupResult& r)
       { return rateCell(r.metrics.flange_found, b.flange_found_min, true); });
   add("hole found (front rim), bore shows through", [](const QualityBars& b, const GroupResult& r)
@@ -646,8 +646,10 @@ std::string scoringSection()
         "(DESIGN.md §7), the same angle at larger sizes, max(2 px, 0.25 r) and max(1 px, 25%) below 480 rows where "
         "holes are a few pixels wide. Hole truth is known for the slot's spool only, so holes on a neighbour (the "
         "target, or tied with the slot's spool) are neither found nor false.\n"
-     << "- **Flange found** counts frames whose target has at least half its rim in view, at 50-110 cm and "
-        "within ±20°; **hole found** those of them where the target is the slot's spool and the opening is in "
+     << "- **Flange found** counts frames whose target has at least half its rim in view, at 50-110 cm, "
+        "within ±20° and seen at most 40° off its own axis (issue 28's obliques; in the oblique set a neighbour "
+        "nearer the puller column than the slot's spool is the target, seen up to 60° off); **hole found** those of "
+        "them where the target is the slot's spool and the opening is in "
         "view (`hole_in_view`), split into the bore showing through (`bore_visible`) and dark; **wrong target** frames "
         "with a target and another "
         "spool centre in view; **false spool** frames without a spool centre in view.\n"

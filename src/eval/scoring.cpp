@@ -59,9 +59,9 @@ std::vector<SpoolTruth> renderedSpools(const GroundTruth& truth)
 {
   std::vector<SpoolTruth> spools;
   if (truth.flange)
-    spools.push_back({*truth.flange, truth.distance, truth.yaw, true});
+    spools.push_back({*truth.flange, truth.distance, truth.yaw, true, false, truth.view_angle});
   for (const NeighbourTruth& n : truth.neighbours)
-    spools.push_back({n.flange, n.distance, n.yaw, false, n.back_row});
+    spools.push_back({n.flange, n.distance, n.yaw, false, n.back_row, n.view_angle});
   return spools;
 }
 
@@ -180,7 +180,8 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
   s.hole_judged = judged.in_slot;
 
   s.flange_eligible = target.flange.visible_fraction >= 0.5 && target.distance >= kWorkingDistanceMin &&
-                      target.distance <= kWorkingDistanceMax && std::abs(target.yaw) <= kWorkingBearingMax;
+                      target.distance <= kWorkingDistanceMax && std::abs(target.yaw) <= kWorkingBearingMax &&
+                      !(target.view_angle > kWorkingViewAngleMax);
   const bool bore_in_view = s.flange_eligible && judged.in_slot && truth.hole_in_view;
   s.hole_eligible = bore_in_view && truth.bore_visible;
   s.hole_dark_eligible = bore_in_view && !truth.bore_visible;

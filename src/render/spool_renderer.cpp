@@ -1225,6 +1225,12 @@ SpoolRenderer::SpoolRenderer(const CameraIntrinsics& camera) : camera_(camera)
 
 namespace
 {
+// rad, between a spool's `axis` and the line of sight to its face centre `c` (camera frame).
+double viewAngle(const Vec3& axis, const Vec3& c)
+{
+  return std::acos(std::clamp(std::abs(axis.dot(c)) / (axis.norm() * c.norm()), 0.0, 1.0));
+}
+
 // The slot spool's pose truth from its bore's front centre `c` and its axis (the world's z) in
 // the camera optical frame: position, depth, range, bearing, the puller reference, the axis'
 // angles and the puller's clearance at both ends of the bore. The puller axis runs along z
@@ -1242,6 +1248,7 @@ void poseTruth(const CameraIntrinsics& camera, const Vec3& c, const Vec3& axis, 
   gt.axis = cv::Vec3d(axis.x(), axis.y(), axis.z());
   gt.axis_angle = std::acos(std::clamp(axis.z(), -1.0, 1.0));
   gt.axis_yaw = std::atan2(axis.x(), axis.z());
+  gt.view_angle = viewAngle(axis, c);
   // The puller axis' miss of the bore axis in the plane across the bore at `end` (on its axis).
   const Vec3 puller(0.0, SpoolRenderer::kPullerOffsetY, 0.0);
   auto missAt = [&](const Vec3& end)
@@ -1269,19 +1276,21 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   gt.camera = camera_;
 
   const Mat3 world_to_cam = cam.rotation.transpose();
+  // Every spool on the shelf lies along the world's z.
+  const Vec3 axis = world_to_cam * Vec3::UnitZ();
   const double big = 0.5 * scene.flange_diameter;
   for (const Vec3& centre : neighbourCentres(scene))
     if (auto pc = projectCircle(camera_, cam, centre, big))
     {
       gt.spool_centre_in_view |= insideImage(camera_, pc->centre_x, pc->centre_y);
       const Vec3 c = world_to_cam * (centre - cam.centre);
-      gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z())});
+      gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z()), false, viewAngle(axis, c)});
     }
   for (const Vec3& centre : backRowCentres(scene))
     if (auto pc = projectCircle(camera_, cam, centre, big))
     {
       const Vec3 c = world_to_cam * (centre - cam.centre);
-      gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z()), true});
+      gt.neighbours.push_back({*pc, c.z(), std::atan(c.x() / c.z()), true, viewAngle(axis, c)});
     }
   if (scene.kind != SceneKind::kSpool)
     return gt;
@@ -1300,7 +1309,7 @@ GroundTruth SpoolRenderer::groundTruth(const SceneParams& scene, const CameraPos
   gt.hole_lens = opening.lens;
   gt.bore_visible = gt.hole_lit_fraction > 0.0;
 
-  poseTruth(camera_, world_to_cam * (centre - cam.centre), world_to_cam * Vec3::UnitZ(), scene, gt);
+  poseTruth(camera_, world_to_cam * (centre - cam.centre), axis, scene, gt);
   return gt;
 }
 
@@ -1704,7 +1713,8 @@ nlohmann::ordered_json groundTruthJson(const GroundTruth& t)
     neighbours.push_back({{"flange", circleJson(n.flange)},
                           {"distance", number(n.distance)},
                           {"yaw", number(n.yaw)},
-                          {"back_row", n.back_row}});
+                          {"back_row", n.back_row},
+                          {"view_angle", number(n.view_angle)}});
   return {{"kind", toString(t.kind)},
           {"lamps", toString(t.lamps)},
           {"illuminance", number(t.illuminance)},
@@ -1731,6 +1741,7 @@ nlohmann::ordered_json groundTruthJson(const GroundTruth& t)
           {"axis", xyz(t.axis[0], t.axis[1], t.axis[2])},
           {"axis_angle", number(t.axis_angle)},
           {"axis_yaw", number(t.axis_yaw)},
+          {"view_angle", number(t.view_angle)},
           {"puller_clears", t.puller_clears},
           {"aligned", t.aligned},
           {"spool_centre_in_view", t.spool_centre_in_view},

@@ -137,6 +137,7 @@ TEST(LabelledSets, TheObliqueSetSeesItsSpools25To40DegreesOffTheirAxis)
     ++spools;
     const cv::Vec3d sight = cv::normalize(cv::Vec3d(t.position.x, t.position.y, t.position.z));
     const double view = std::acos(std::abs(sight.dot(t.axis))) * 180.0 / M_PI;
+    EXPECT_NEAR(t.view_angle * 180.0 / M_PI, view, 1e-9) << i;
     EXPECT_GE(view, 24.0) << i;
     EXPECT_LE(view, 41.0) << i;
     EXPECT_LE(std::abs(t.yaw), 16.0 * M_PI / 180.0) << i;
@@ -341,6 +342,28 @@ TEST(Scoring, ABackRowSpoolIsNeverTheTarget)
   EXPECT_TRUE(on_back_row.neighbours_in_view);
   EXPECT_NEAR(on_back_row.any_depth_error, 0.0, 1e-12);  // its depth is judged against its own truth
   EXPECT_EQ(sv::summarize({on_back_row}).wrong_target.hits, 1);
+}
+
+TEST(Scoring, ATargetSeenMoreThan40DegreesOffItsAxisIsOutsideTheFlangeBar)
+{
+  // The oblique set's camera beside the slot: a neighbour nearer the puller column than the slot's
+  // spool (seen 37 deg off its axis) is the target, seen 57 deg off. It stays the target (a
+  // detection on the slot's spool is a wrong target), but the flange bar, like 50-110 cm, asks it
+  // only to 40 deg (issue 28).
+  sv::GroundTruth t = slotSpool(420.0);  // about +7 deg
+  t.view_angle = 37.0 * M_PI / 180.0;
+  addNeighbour(t, 380.0);
+  t.neighbours[0].view_angle = 57.0 * M_PI / 180.0;
+  ASSERT_FALSE(sv::targetSpool(t)->in_slot);
+  const sv::FrameScore missed = sv::scoreFrame(t, sv::SpoolDetection());
+  EXPECT_FALSE(missed.flange_eligible);
+  const sv::FrameScore on_slot = sv::scoreFrame(t, flangeAt(circleOf(*t.flange)));
+  EXPECT_FALSE(on_slot.correct);
+  EXPECT_EQ(sv::summarize({on_slot}).wrong_target.hits, 1);
+
+  // At 40 deg it is asked.
+  t.neighbours[0].view_angle = 39.0 * M_PI / 180.0;
+  EXPECT_TRUE(sv::scoreFrame(t, sv::SpoolDetection()).flange_eligible);
 }
 
 TEST(Scoring, TwoSpoolsWithinOneDegreeOfTheSameBearingAreBothTheTarget)

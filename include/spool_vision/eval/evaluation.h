@@ -83,10 +83,11 @@ std::vector<RenderedFrame> renderSet(const SpoolRenderer& renderer, FrameSet set
 struct SpoolTruth
 {
   ProjectedCircle flange;
-  double distance = 0.0;  ///< m
-  double yaw = 0.0;       ///< rad, bearing from the puller column
-  bool in_slot = false;   ///< the slot's own spool (its hole and bore are in the ground truth)
-  bool back_row = false;  ///< behind the front row: never the target
+  double distance = 0.0;    ///< m
+  double yaw = 0.0;         ///< rad, bearing from the puller column
+  bool in_slot = false;     ///< the slot's own spool (its hole and bore are in the ground truth)
+  bool back_row = false;    ///< behind the front row: never the target
+  double view_angle = 0.0;  ///< rad, between its axis and the line of sight to its face centre
 };
 
 /// Every spool of the frame (in view or not), the slot's spool first when there is one.
@@ -117,10 +118,13 @@ HoleTolerance holeTolerance(const CameraIntrinsics& camera);
 
 bool holeMatches(const ProjectedCircle& truth, const Circle& found, const HoleTolerance& tolerance);
 
-/// The bar's working range: 50-110 cm and +-20 deg bearing.
+/// The bar's working range: 50-110 cm and +-20 deg bearing (DESIGN.md section 7), the target seen
+/// at most 40 deg off its own axis (issue 28: "obliques to at least 40 degrees"; a neighbour nearer
+/// the puller column than a spool seen 25-40 deg off is seen up to 60 deg off).
 constexpr double kWorkingDistanceMin = 0.5;
 constexpr double kWorkingDistanceMax = 1.1;
 constexpr double kWorkingBearingMax = 20.0 * M_PI / 180.0;
+constexpr double kWorkingViewAngleMax = 40.0 * M_PI / 180.0;
 /// The insertion window (depth), where the lateral error is scored.
 constexpr double kInsertionDepthMin = SpoolRenderer::kAlignedDistanceMin;
 constexpr double kInsertionDepthMax = SpoolRenderer::kAlignedDistanceMax;

@@ -204,6 +204,8 @@ struct NeighbourTruth
   double yaw = 0.0;        ///< rad, bearing of its flange centre from the puller column
   /// in the back row: behind the front row, so never the target (the puller reaches the front row)
   bool back_row = false;
+  /// rad, between its axis and the line of sight to its flange face centre (0 = seen face-on)
+  double view_angle = 0.0;
 };
 
 /// Exact ground truth of one rendered frame. Undefined numbers are NaN.
@@ -245,6 +247,9 @@ struct GroundTruth
   cv::Vec3d axis{SpoolDetection::kNaN, SpoolDetection::kNaN, SpoolDetection::kNaN};
   double axis_angle = SpoolDetection::kNaN;  ///< rad, between the spool axis and the puller axis (optical z)
   double axis_yaw = SpoolDetection::kNaN;    ///< rad, atan2(axis.x, axis.z): positive = the axis heads right
+  /// rad, between the spool axis and the line of sight to the bore's front centre (0 = seen
+  /// face-on); the flange's ellipse is about cos(view_angle) as wide across the axis' turn as along it
+  double view_angle = SpoolDetection::kNaN;
   /// The puller pushed straight in would not touch the bore wall: its axis (camera frame: through
   /// (0, kPullerOffsetY, 0) along +z) lies within t_f = (hole_diameter - kPullerDiameter) / 2 of
   /// the bore axis in the plane of the bore's front face and in that of its back end (bore_length
