@@ -43,8 +43,8 @@ public:
   /// The rim of the flange whose bore's front centre shows at `bore` (undistorted px), measured
   /// from the pose (`position`, m; `axis`, unit; camera optical frame; a NaN axis faces the
   /// camera): moving edges along that pose's rim (`search`), then fitRimPose() on them from that
-  /// pose. False (fit untouched) when either finds too little. Throws std::invalid_argument when
-  /// the image does not fit `format`.
+  /// pose, about the bore's ray. False (fit untouched) when either finds too little. Throws
+  /// std::invalid_argument when the image does not fit `format`.
   bool measure(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, RimPoseFit& fit);
 
@@ -52,8 +52,10 @@ public:
   /// `farthest` (m), kDepthStep apart, and level axes (no pitch: spools lie on a level board)
   /// turned up to kMaxViewAngle either way off the line of sight, kYawStep apart. Each is measured
   /// by moving edges (kCoarseSamples of them); the kRefined whose edges cover most of the rim are
-  /// fitted in 3-D (measure()) and the one with the most support wins, then outermost() from
-  /// it. `nearest` and `farthest` positive, nearest <= farthest. False when none fits.
+  /// fitted in 3-D (measure(); where the fit about the bore's ray fails, with the rim's centre
+  /// fitted too, within kBoreOffCentre of its size of the bore: a dark bore seen far off its axis is
+  /// measured a few px off its centre) and the one with the most support wins, then outermost()
+  /// from it. `nearest` and `farthest` positive, nearest <= farthest. False when none fits.
   bool search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
               double nearest, double farthest, const RimSearch& search, RimPoseFit& best);
 
@@ -70,6 +72,10 @@ public:
   /// 7% of depth between poses: within the moving edges' reach (6% of the rim's size) either way.
   static constexpr double kDepthStep = 1.07;
   static constexpr std::size_t kRefined = 4;
+  /// How far (a share of the rim's radius, px) the search's rim centre may lie off the bore's where
+  /// the fit about the bore's ray fails (SpoolGeometry::fitRimPose's centre_reach). Not in measure(),
+  /// which checks a rim about a measured bore (a rib ring fitted off its bore would pass).
+  static constexpr double kBoreOffCentre = 0.05;
   /// A larger rim about the same axis with this share of the best rim's support is the flange,
   /// the best one a rib ring on its face (outermost()).
   static constexpr double kOuterSupport = 0.7;
@@ -79,6 +85,11 @@ public:
   static constexpr int kCoarseSamples = 32;
 
 private:
+  /// measure(), with the centre also fitted within kBoreOffCentre where `off_centre` holds.
+  bool measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+                   const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, bool off_centre,
+                   RimPoseFit& fit);
+
   /// The flange is the outermost rim about its bore, and a rib ring on its face is a whole circle
   /// about the bore too: rims about `best`'s axis are measured outwards, kDepthStep apart, out to
   /// kInnerRing times its size, and the outermost with kOuterSupport of `best`'s support replaces it.

@@ -57,8 +57,13 @@ public:
   /// beside an oblique rim, a neighbour touching it). Unlike the ellipse's centre this uses whatever arc shows and the
   /// rim's size and eccentricity too. False (outputs untouched) with fewer than 30 points in the band or without
   /// convergence. `support`, if given, gets how many of the points used lie within the band at the result.
+  /// With `centre_reach` (px) positive the circle's centre is fitted too, starting on the ray through
+  /// `centre` and ending within that many px of it (false otherwise): a 3-D circle of known radius
+  /// has the ellipse's five degrees of freedom. For a bore measured off its centre (a dark bore seen
+  /// 30-40 deg off its axis shows part of its opening dark, its fit 3-6 px off at 640x480), where
+  /// the fit about its ray leaves too few points in the band.
   bool fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Point2d& centre, cv::Point3d& position,
-                  cv::Vec3d& axis, int* support = nullptr) const;
+                  cv::Vec3d& axis, int* support = nullptr, double centre_reach = 0.0) const;
 
   /// The point at `depth` (m) seen at pixel (u, v), camera optical frame (pinhole).
   cv::Point3d backProject(double u, double v, double depth) const;

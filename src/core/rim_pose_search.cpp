@@ -15,6 +15,13 @@ bool RimPoseSearch::measure(const cv::Mat& image, PixelFormat format, const Spoo
                             const cv::Point2d& bore, const cv::Point3d& position, const cv::Vec3d& axis,
                             const RimSearch& search, RimPoseFit& fit)
 {
+  return measurePose(image, format, geometry, bore, position, axis, search, false, fit);
+}
+
+bool RimPoseSearch::measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                const cv::Point2d& bore, const cv::Point3d& position, const cv::Vec3d& axis,
+                                const RimSearch& search, bool off_centre, RimPoseFit& fit)
+{
   const bool facing = !(std::isfinite(axis[0]) && std::isfinite(axis[1]) && std::isfinite(axis[2]));
   const cv::Vec3d start = facing ? cv::Vec3d(0.0, 0.0, 1.0) : axis;
   Circle rim;
@@ -26,7 +33,11 @@ bool RimPoseSearch::measure(const cv::Mat& image, PixelFormat format, const Spoo
   cv::Point3d fitted = position / moving_edges_.fittedScale();
   cv::Vec3d fitted_axis = start;
   int support = 0;
-  if (!geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support))
+  // About the bore's ray first; where that leaves too few edges in the band, the centre is fitted
+  // too (a dark bore seen far off its axis is measured a few px off its centre).
+  if (!geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support) &&
+      !(off_centre &&
+        geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support, kBoreOffCentre * rim.r)))
     return false;
   fit.position = fitted;
   fit.axis = fitted_axis;
@@ -82,8 +93,8 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
   {
     if (!(pose.score > 0.0))
       continue;
-    if (measure(image, format, geometry, bore, ray * pose.depth, cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)),
-                search, candidate_) &&
+    if (measurePose(image, format, geometry, bore, ray * pose.depth,
+                    cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, true, candidate_) &&
         (!found || candidate_.support > best.support))
     {
       best = candidate_;  // a copy: each keeps its grown capacity
@@ -107,7 +118,7 @@ void RimPoseSearch::outermost(const cv::Mat& image, PixelFormat format, const Sp
     const double depth = inner / std::pow(kDepthStep, step);
     // Only a rim that stays nearer than the one inside (the moving edges reach back to it from
     // the first step out) and that is as solid counts.
-    if (measure(image, format, geometry, bore, ray * depth, axis, search, candidate_) &&
+    if (measurePose(image, format, geometry, bore, ray * depth, axis, search, true, candidate_) &&
         candidate_.position.z < best.position.z / std::sqrt(kDepthStep) &&
         candidate_.support >= kOuterSupport * best.support)
       best = candidate_;

@@ -49,16 +49,20 @@ struct RimCircle
   double band;
 };
 
-// Adds each rim point's residual and its derivatives by p to the normal equations jtj, jtr and
-// returns how many points took part (every `stride`-th within the band). In closed form (a numeric
-// Jacobian took four evaluations per point, and this fit is a tenth of a frame at 160x120): with
-// the circle's centre c = d ray and its normal along m = (a, b, 1), the point's ray r meets the
-// plane at x = t r, t = (m.c) / (m.r) = d (m.ray) / (m.r); u = x - c; the residual, in px at the
-// circle's scale s = fy / c_z, is e = (|u| - R) s. Then du/dd = u / d, so de/dd = s R / d, and
+// Adds each rim point's residual and its derivatives by the unknowns to the normal equations jtj,
+// jtr and returns how many points took part (every `stride`-th within the band). In closed form (a
+// numeric Jacobian took four evaluations per point, and this fit is a tenth of a frame at 160x120):
+// with the circle's centre c = d ray and its normal along m = (a, b, 1), the point's ray r meets
+// the plane at x = t r, t = (m.c) / (m.r) = d (m.ray) / (m.r); u = x - c; the residual, in px at
+// the circle's scale s = fy / c_z, is e = (|u| - R) s. Then du/dd = u / d, so de/dd = s R / d, and
 // dt/da = d (ray_x (m.r) - (m.ray) r_x) / (m.r)^2 (b alike with y), de/da = s (dt/da) (u.r) / |u|.
+// With N = 5 the ray's x and y are unknowns too (ray_z = 1): dc/dray_x = (d, 0, 0) and
+// dt/dray_x = d a / (m.r), so de/dray_x = s (d a / (m.r) (u.r) - d u_x) / |u| (y alike with b).
+template <int N>
 int addRimNormalEquations(const std::vector<cv::Point2f>& rim, std::size_t stride, const CameraIntrinsics& camera,
-                          const RimCircle& circle, Eigen::Matrix3d& jtj, Eigen::Vector3d& jtr)
+                          const RimCircle& circle, Eigen::Matrix<double, N, N>& jtj, Eigen::Matrix<double, N, 1>& jtr)
 {
+  static_assert(N == 3 || N == 5, "depth and slopes, or those and the ray");
   const Eigen::Vector3d& ray = circle.ray;
   const double radius = circle.radius;
   const double depth = circle.p.x();
@@ -81,13 +85,58 @@ int addRimNormalEquations(const std::vector<cv::Point2f>& rim, std::size_t strid
       continue;
     const double along = scale * u.dot(r) / length;
     const double dt = depth / (m_r * m_r);
-    const Eigen::Vector3d j(scale * radius / depth, along * dt * (ray.x() * m_r - m_ray * r.x()),
-                            along * dt * (ray.y() * m_r - m_ray * r.y()));
+    Eigen::Matrix<double, N, 1> j;
+    j.template head<3>() << scale * radius / depth, along * dt * (ray.x() * m_r - m_ray * r.x()),
+        along * dt * (ray.y() * m_r - m_ray * r.y());
+    if constexpr (N == 5)
+    {
+      const double across = scale * depth / length;
+      j(3) = along * depth * m.x() / m_r - across * u.x();
+      j(4) = along * depth * m.y() / m_r - across * u.y();
+    }
     jtj += j * j.transpose();
     jtr += j * e;
     ++used;
   }
   return used;
+}
+
+// fitRimPose() with N unknowns (3: the centre on the ray; 5: the ray's x and y too).
+template <int N>
+bool fitRim(const std::vector<cv::Point2f>& rim, const CameraIntrinsics& camera, double radius, Eigen::Vector3d& ray,
+            Eigen::Vector3d& p, int* support)
+{
+  // At most ~400 points: the fit has three to five unknowns, and its cost stays a fraction of the Hough's.
+  const std::size_t stride = std::max<std::size_t>(1, rim.size() / 400);
+  const double band = std::max(1.5, 0.01 * camera.fy * radius / p.x());
+  constexpr int kIterations = 6;
+  for (int iteration = 0; iteration < kIterations; ++iteration)
+  {
+    Eigen::Matrix<double, N, N> jtj = Eigen::Matrix<double, N, N>::Zero();
+    Eigen::Matrix<double, N, 1> jtr = Eigen::Matrix<double, N, 1>::Zero();
+    // The first pass takes a wider band: the start (rimPose()) may be a few px off the rim.
+    const RimCircle circle{ray, p, radius, (iteration == 0 ? 3.0 : 1.0) * band};
+    constexpr int kMinPoints = 30;
+    if (addRimNormalEquations<N>(rim, stride, camera, circle, jtj, jtr) < kMinPoints)
+      return false;
+    const Eigen::Matrix<double, N, 1> step = -jtj.ldlt().solve(jtr);
+    if (!step.allFinite())
+      return false;
+    p += step.template head<3>();
+    if constexpr (N == 5)
+      ray.template head<2>() += step.template tail<2>();
+    if (!(p.x() > 0.0))
+      return false;
+    if (std::abs(step.x()) < 1e-7 * p.x() && step.template tail<N - 1>().cwiseAbs().maxCoeff() < 1e-7)
+      break;
+  }
+  if (support)
+  {
+    Eigen::Matrix<double, N, N> jtj = Eigen::Matrix<double, N, N>::Zero();
+    Eigen::Matrix<double, N, 1> jtr = Eigen::Matrix<double, N, 1>::Zero();
+    *support = addRimNormalEquations<N>(rim, stride, camera, RimCircle{ray, p, radius, band}, jtj, jtr);
+  }
+  return true;
 }
 }  // namespace
 
@@ -153,40 +202,21 @@ bool SpoolGeometry::rimPose(const Circle& flange, const cv::Point2d& centre, cv:
 }
 
 bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Point2d& centre, cv::Point3d& position,
-                               cv::Vec3d& axis, int* support) const
+                               cv::Vec3d& axis, int* support, double centre_reach) const
 {
   const double radius = 0.5 * params_.flange_diameter;
-  const Eigen::Vector3d ray((centre.x - camera_.cx) / camera_.fx, (centre.y - camera_.cy) / camera_.fy, 1.0);
-  // Unknowns: depth along `ray` and the normal's slopes (n ~ (a, b, 1)).
+  const Eigen::Vector3d start((centre.x - camera_.cx) / camera_.fx, (centre.y - camera_.cy) / camera_.fy, 1.0);
+  Eigen::Vector3d ray = start;
+  // Unknowns: depth along `ray` and the normal's slopes (n ~ (a, b, 1)); with a reach, the ray too.
   Eigen::Vector3d p(position.z / ray.z(), axis[0] / axis[2], axis[1] / axis[2]);
-  // At most ~400 points: the fit has three unknowns, and its cost stays a fraction of the Hough's.
-  const std::size_t stride = std::max<std::size_t>(1, rim.size() / 400);
-  const double band = std::max(1.5, 0.01 * camera_.fy * radius / p.x());
-  constexpr int kIterations = 6;
-  for (int iteration = 0; iteration < kIterations; ++iteration)
+  if (!(centre_reach > 0.0))
   {
-    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
-    // The first pass takes a wider band: the start (rimPose()) may be a few px off the rim.
-    const RimCircle circle{ray, p, radius, (iteration == 0 ? 3.0 : 1.0) * band};
-    constexpr int kMinPoints = 30;
-    if (addRimNormalEquations(rim, stride, camera_, circle, jtj, jtr) < kMinPoints)
+    if (!fitRim<3>(rim, camera_, radius, ray, p, support))
       return false;
-    const Eigen::Vector3d step = -jtj.ldlt().solve(jtr);
-    if (!step.allFinite())
-      return false;
-    p += step;
-    if (!(p.x() > 0.0))
-      return false;
-    if (std::abs(step.x()) < 1e-7 * p.x() && step.tail<2>().cwiseAbs().maxCoeff() < 1e-7)
-      break;
   }
-  if (support)
-  {
-    Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
-    *support = addRimNormalEquations(rim, stride, camera_, RimCircle{ray, p, radius, band}, jtj, jtr);
-  }
+  else if (!fitRim<5>(rim, camera_, radius, ray, p, support) ||
+           !(std::hypot((ray.x() - start.x()) * camera_.fx, (ray.y() - start.y()) * camera_.fy) <= centre_reach))
+    return false;
   toPose(ray, p, position, axis);
   return true;
 }

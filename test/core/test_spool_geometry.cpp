@@ -352,6 +352,56 @@ TEST(SpoolGeometry, FitRimPoseUsesWhateverArcShows)
   EXPECT_EQ(untouched, cv::Point3d(1, 2, 3));
 }
 
+TEST(SpoolGeometry, FitRimPoseFitsTheCentreTooWithinItsReach)
+{
+  // A rim seen 35 deg off its axis at 70 cm, its bore measured 5 px off the true centre (a dark
+  // bore seen that far off shows part of its opening dark): within a reach of 8 px the centre is
+  // fitted with depth and axis; with 2 px it is refused, outputs untouched.
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  const cv::Vec3d c(0.05, 0.06, 0.7);
+  const cv::Vec3d n(std::sin(35.0 * kDeg), 0.0, std::cos(35.0 * kDeg));
+  const cv::Vec3d a = cv::normalize(cv::Vec3d(0, 1, 0).cross(n));
+  const cv::Vec3d b = n.cross(a);
+  cv::RNG rng(11);
+  std::vector<cv::Point2f> rim;
+  for (int i = 0; i < 600; ++i)
+  {
+    const double phi = 2.0 * M_PI * i / 600;
+    const cv::Vec3d p = c + 0.175 * (std::cos(phi) * a + std::sin(phi) * b);
+    rim.emplace_back(static_cast<float>(camera.cx + camera.fx * p[0] / p[2] + rng.gaussian(0.2)),
+                     static_cast<float>(camera.cy + camera.fy * p[1] / p[2] + rng.gaussian(0.2)));
+  }
+  const cv::Point2d truth(camera.cx + camera.fx * c[0] / c[2], camera.cy + camera.fy * c[1] / c[2]);
+  const cv::Point2d bore = truth + cv::Point2d(-5.0, 0.0);
+  const cv::Point3d start(0.0, 0.0, 0.72);
+  const cv::Vec3d start_axis = cv::normalize(cv::Vec3d(std::tan(30.0 * kDeg), 0.0, 1.0));
+
+  cv::Point3d position = start;
+  cv::Vec3d axis = start_axis;
+  int support = 0;
+  ASSERT_TRUE(g.fitRimPose(rim, bore, position, axis, &support, 8.0));
+  EXPECT_NEAR(position.z, c[2], 0.002 * c[2]);
+  EXPECT_NEAR(position.x, c[0], 0.001);
+  EXPECT_NEAR(position.y, c[1], 0.001);
+  EXPECT_NEAR(std::acos(axis.dot(n)) / kDeg, 0.0, 0.3);
+  EXPECT_GT(support, 500);
+
+  // About the bore's own ray the circle misses part of the rim (from the frame's 96 moving edges,
+  // fewer than the fit's 30 points were left).
+  cv::Point3d about_ray = start;
+  cv::Vec3d about_ray_axis = start_axis;
+  int about_ray_support = 0;
+  if (g.fitRimPose(rim, bore, about_ray, about_ray_axis, &about_ray_support))
+  {
+    EXPECT_LT(about_ray_support, 0.7 * support);
+  }
+
+  cv::Point3d untouched = start;
+  EXPECT_FALSE(g.fitRimPose(rim, bore, untouched, axis, nullptr, 2.0));
+  EXPECT_EQ(untouched, start);
+}
+
 TEST(SpoolGeometry, ACutRimsSquashedEllipseDoesNotTrapTheRimFit)
 {
   // 320x240 at 54 cm: the rim overfills the frame and is cut at the bottom; the ellipse fitted to
