@@ -291,9 +291,11 @@ private:
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                     const HoughSearch& hole_search, double bound, SpoolDetection& result);
   /// Whether `hole`'s size (its vertical semi-axis) is within kObliqueBoreAgreement of what the
-  /// flange rim `rim` gives its bore: a rim about a bore is the flange only where it agrees with the
-  /// bore's own size (a rib ring's hole taken with the flange outside it does not).
-  bool boreAgreesWith(const Circle& hole, const Circle& rim) const;
+  /// flange rim `fit.rim` gives its bore, its lower bound times the cosine of the angle between the
+  /// fit's axis and its line of sight (a dark bore seen 35-39 deg off its axis was measured at 0.67-0.76
+  /// of the size: oblique seed 7 #78, #140, #155): a rim about a bore is the flange only where it
+  /// agrees with the bore's own size (a rib ring's hole taken with the flange outside it does not).
+  bool boreAgreesWith(const Circle& hole, const RimPoseFit& fit) const;
   /// rim_ for a rim RimPoseSearch found: the frame's edges on it (gatherRim()) where there are
   /// kMinGatheredRim, else the search's moving edges.
   void takeObliqueRim();

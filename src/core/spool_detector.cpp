@@ -366,7 +366,7 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
       !rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
                                kObliqueFarthest * result.position.z, search, oblique_rim_) ||
       oblique_rim_.support < std::max(own + kObliqueRimMargin, kObliqueRimMinSupport) ||
-      !boreAgreesWith(result.hole, oblique_rim_.rim))
+      !boreAgreesWith(result.hole, oblique_rim_))
     return;
   result.flange = oblique_rim_.rim;
   gatherRim(result, params_.hough.flange_polarity);
@@ -380,10 +380,14 @@ RimSearch SpoolDetector::obliqueRimSearch(double flange_px) const
   return rimSearch(std::max(kObliqueRimReachPx, kObliqueRimReach * flange_px));
 }
 
-bool SpoolDetector::boreAgreesWith(const Circle& hole, const Circle& rim) const
+bool SpoolDetector::boreAgreesWith(const Circle& hole, const RimPoseFit& fit) const
 {
-  const double seen = hole.r_vertical > 0.0 ? hole.r_vertical : hole.r;
-  return std::abs(seen / matcher_.holeRadius(rim) - 1.0) <= kObliqueBoreAgreement;
+  const double seen = (hole.r_vertical > 0.0 ? hole.r_vertical : hole.r) / matcher_.holeRadius(fit.rim);
+  // Seen far off its axis, a dark bore's opening narrows by the cosine of the angle, and its
+  // circle comes out between the two semi-axes.
+  const cv::Vec3d sight = cv::normalize(cv::Vec3d(fit.position.x, fit.position.y, fit.position.z));
+  const double narrowing = std::isfinite(fit.axis[0]) ? std::abs(sight.dot(fit.axis)) : 1.0;
+  return seen <= 1.0 + kObliqueBoreAgreement && seen >= (1.0 - kObliqueBoreAgreement) * narrowing;
 }
 
 void SpoolDetector::takeObliqueRim()
@@ -593,7 +597,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
                                    std::min(gp.distance_max, kObliqueBoreFarthest * depth), search, oblique_rim_) ||
           oblique_rim_.support < kObliqueSpoolSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
           (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
-          !boreAgreesWith(hole, oblique_rim_.rim) ||
+          !boreAgreesWith(hole, oblique_rim_) ||
           ConcentricMatcher::targetCost({hole.x, hole.y}, oblique_rim_.support, reference) >= bound)
         continue;
       takeSpool(oblique_rim_.rim, hole, result);
