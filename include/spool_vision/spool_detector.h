@@ -303,9 +303,20 @@ private:
   /// own pose's rim, measured by moving edges, has under kObliqueRimSupport of support: the
   /// search's rim replaces the flange and its edges the rim when it is supported by at least
   /// kObliqueRimMargin more (and kObliqueRimMinSupport) and agrees with the hole's size
-  /// (boreAgreesWith), and the pose is measured again on it. `result` is in undistorted px.
+  /// (boreAgreesWith), or where none does, the rim smallerBoreRim() finds with its bore; the pose is
+  /// then measured again on it. `result` is in undistorted px.
   void measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                         SpoolDetection& result);
+                         const HoughSearch& hole_search, SpoolDetection& result);
+  /// Where that search finds no rim: the bore measured again about the result's hole at
+  /// kSmallerBoreRatio to kInnerRingRatio of the size the flange gives it (a circle around an oblique
+  /// rim and its back flange's silhouette is 12-30% too large, and so is the hole measured at its
+  /// size), the best such bore rim whose rim is in the frame, at least kMinKnownSizeRadius, and whose
+  /// disc shows dark (far off its axis a bore is dark; the smaller disc in a bore seen along its axis
+  /// is the lit lens: hard seed 7 #10), and the rim searched about it as obliqueSpool() does. True, with the rim in
+  /// oblique_rim_ and the bore in `hole`, where that rim has `least` support and agrees with the
+  /// bore (boreAgreesWith). Uses hole_edges_ and own_bores_.
+  bool smallerBoreRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                      const HoughSearch& hole_search, const SpoolDetection& result, double least, Circle& hole);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
   /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
   void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);
@@ -324,6 +335,8 @@ private:
   /// ... and with at least this support (a rim cut by the border whose bore was found off centre
   /// gave a rib ring at 0.51; the oblique rims replaced 0.6-0.85).
   static constexpr double kObliqueRimMinSupport = 0.55;
+  /// The smallest bore smallerBoreRim() seeks, as a share of the size the flange gives it.
+  static constexpr double kSmallerBoreRatio = 0.6;
   /// The moving edges' reach there: this fraction of the flange's vertical semi-axis, at least
   /// kObliqueRimReachPx.
   static constexpr double kObliqueRimReach = 0.06;

@@ -228,7 +228,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   }
   geometry.measure(result, rim_);
   if (whole_frame && !along_rim && result.hole_detected)
-    measureObliqueRim(image, format, geometry, result);
+    measureObliqueRim(image, format, geometry, hole_search, result);
   measureBoreParallax(geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
   Circle bore;
@@ -351,7 +351,7 @@ RimSearch SpoolDetector::rimSearch(double reach) const
 }
 
 void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                      SpoolDetection& result)
+                                      const HoughSearch& hole_search, SpoolDetection& result)
 {
   if (!(result.position.z > 0.0) || result.flange.r_vertical < kObliqueRimMinRadius)
     return;
@@ -362,16 +362,54 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
           ? own_rim_.support
           : 0.0;
   // A rim mostly out of the frame has too few samples for any pose's fit: nothing to compare.
-  if (own >= kObliqueRimSupport || rim_pose_search_.samplesInFrame() < kObliqueRimMinSamples ||
-      !rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
-                               kObliqueFarthest * result.position.z, search, oblique_rim_) ||
-      oblique_rim_.support < std::max(own + kObliqueRimMargin, kObliqueRimMinSupport) ||
-      !boreAgreesWith(result.hole, oblique_rim_))
+  if (own >= kObliqueRimSupport || rim_pose_search_.samplesInFrame() < kObliqueRimMinSamples)
+    return;
+  const double least = std::max(own + kObliqueRimMargin, kObliqueRimMinSupport);
+  Circle hole = result.hole;
+  if (!(rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
+                                kObliqueFarthest * result.position.z, search, oblique_rim_) &&
+        oblique_rim_.support >= least && boreAgreesWith(hole, oblique_rim_)) &&
+      !smallerBoreRim(image, format, geometry, hole_search, result, least, hole))
     return;
   result.flange = oblique_rim_.rim;
+  result.hole = hole;
   gatherRim(result, params_.hough.flange_polarity);
   takeObliqueRim();
   geometry.measure(result, rim_);
+}
+
+bool SpoolDetector::smallerBoreRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                   const HoughSearch& hole_search, const SpoolDetection& result, double least,
+                                   Circle& hole)
+{
+  // A circle around an oblique rim and its back flange's silhouette is too large, and the hole
+  // measured at the size it gives is too: the bore's own rim is sought at smaller sizes about it.
+  const double expected = matcher_.holeRadius(result.flange);
+  const double margin = std::max(2.0, expected);
+  HoughSearch own = hole_search;
+  own.center_window = cv::Rect2d(result.hole.x - margin, result.hole.y - margin, 2.0 * margin, 2.0 * margin);
+  own.r_min = std::max(hole_search.r_min, kSmallerBoreRatio * expected);
+  own.r_max = std::min(hole_search.r_max, kInnerRingRatio * expected);
+  if (own.r_min >= own.r_max)
+    return false;
+  extractHoleEdges(cv::Rect2d(result.hole.x, result.hole.y, 0.0, 0.0), margin + own.r_max + 2.0);
+  hole_hough_.detect(hole_edges_, preprocessed_.size(), own, own_bores_);
+  const auto best = std::max_element(own_bores_.begin(), own_bores_.end(),
+                                     [](const Circle& a, const Circle& b) { return a.score < b.score; });
+  if (best == own_bores_.end() || best->r < kMinKnownSizeRadius ||
+      best->visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
+      signedBoreContrast({best->x, best->y}, best->r) < params_.matcher.bore_contrast)
+    return false;
+  const GeometryParams& gp = params_.geometry;
+  const double depth = geometry.depthFromDiameter(2.0 * best->r * gp.flange_diameter / gp.hole_diameter);
+  if (!rim_pose_search_.search(image, format, geometry, {best->x, best->y},
+                               std::max(gp.distance_min, kObliqueBoreNearest * depth),
+                               std::min(gp.distance_max, kObliqueBoreFarthest * depth),
+                               obliqueRimSearch(best->r * gp.flange_diameter / gp.hole_diameter), oblique_rim_) ||
+      oblique_rim_.support < least || !boreAgreesWith(*best, oblique_rim_))
+    return false;
+  hole = *best;
+  return true;
 }
 
 RimSearch SpoolDetector::obliqueRimSearch(double flange_px) const

@@ -359,3 +359,20 @@ TEST(FailureKinds, AnObliqueRimIsFoundAboutADarkBoreMeasuredOffItsCentre)
     EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
   }
 }
+
+// A circle around an oblique rim and its back flange's silhouette, 12-30% too large, with the hole
+// measured at the size it gives (too large as well, 5 px off): no pose about that hole fitted, and
+// the depth was 11-13% short (oblique seed 7 #5, seed 11 #68, seed 13 #53). The bore measured
+// again at smaller sizes gives the rim, its depth within 2%.
+TEST(FailureKinds, AnObliqueRimsJointSilhouetteGivesWayToTheRimAboutItsOwnBore)
+{
+  for (const auto& [seed, index] : {std::pair{7, 5}, std::pair{11, 68}, std::pair{13, 53}})
+  {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(FrameSet::kOblique, seed, index, 200, 640, detector);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected);
+    EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
+  }
+}
