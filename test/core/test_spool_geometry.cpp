@@ -309,6 +309,25 @@ TEST(SpoolGeometry, WithoutAHoleThePositionIsTheFlangesAndTheAxisUnknown)
   EXPECT_FALSE(d.aligned);
 }
 
+namespace
+{
+// `count` points of the flange rim (35 cm) centred at `c` (m, camera frame) facing along `n`
+// (unit), projected by `camera` (px, pinhole), in order around it.
+std::vector<cv::Point2d> projectedRim(const CameraIntrinsics& camera, const cv::Vec3d& c, const cv::Vec3d& n, int count)
+{
+  const cv::Vec3d a = cv::normalize(cv::Vec3d(0, 1, 0).cross(n));
+  const cv::Vec3d b = n.cross(a);
+  std::vector<cv::Point2d> rim;
+  for (int i = 0; i < count; ++i)
+  {
+    const double phi = 2.0 * M_PI * i / count;
+    const cv::Vec3d p = c + 0.175 * (std::cos(phi) * a + std::sin(phi) * b);
+    rim.emplace_back(camera.cx + camera.fx * p[0] / p[2], camera.cy + camera.fy * p[1] / p[2]);
+  }
+  return rim;
+}
+}  // namespace
+
 TEST(SpoolGeometry, FitRimPoseUsesWhateverArcShows)
 {
   // 40% of a rim (the rest beyond the frame's right border), 0.2 px noise, outliers of a back
@@ -317,27 +336,21 @@ TEST(SpoolGeometry, FitRimPoseUsesWhateverArcShows)
   const SpoolGeometry g(GeometryParams(), camera);
   const cv::Vec3d c(0.22, 0.06, 0.6);
   const cv::Vec3d n = cv::normalize(cv::Vec3d(std::tan(-3.0 * kDeg), std::tan(1.0 * kDeg), 1.0));
-  const cv::Vec3d a = cv::normalize(cv::Vec3d(0, 1, 0).cross(n));
-  const cv::Vec3d b = n.cross(a);
+  const cv::Point2d centre(camera.cx + camera.fx * c[0] / c[2], camera.cy + camera.fy * c[1] / c[2]);
   cv::RNG rng(7);
   std::vector<cv::Point2f> rim;
-  for (int i = 0; i < 2000; ++i)
+  const std::vector<cv::Point2d> projected = projectedRim(camera, c, n, 2000);
+  for (std::size_t i = 0; i < projected.size(); ++i)
   {
-    const double phi = 2.0 * M_PI * i / 2000;
-    const cv::Vec3d p = c + 0.175 * (std::cos(phi) * a + std::sin(phi) * b);
-    const double u = camera.cx + camera.fx * p[0] / p[2];
-    const double v = camera.cy + camera.fy * p[1] / p[2];
-    if (u > 500.0)
+    const cv::Point2d q = projected[i];
+    if (q.x > 500.0)
       continue;
     const double inward = i % 10 == 0 ? 8.0 : 0.0;  // every tenth point: the crescent
-    const double du = u - (camera.cx + camera.fx * c[0] / c[2]);
-    const double dv = v - (camera.cy + camera.fy * c[1] / c[2]);
-    const double len = std::hypot(du, dv);
-    rim.emplace_back(static_cast<float>(u - inward * du / len + rng.gaussian(0.2)),
-                     static_cast<float>(v - inward * dv / len + rng.gaussian(0.2)));
+    const cv::Point2d out = (q - centre) / cv::norm(q - centre);
+    rim.emplace_back(static_cast<float>(q.x - inward * out.x + rng.gaussian(0.2)),
+                     static_cast<float>(q.y - inward * out.y + rng.gaussian(0.2)));
   }
   ASSERT_GT(rim.size(), 400u);
-  const cv::Point2d centre(camera.cx + camera.fx * c[0] / c[2], camera.cy + camera.fy * c[1] / c[2]);
   cv::Point3d position(0.0, 0.0, 0.606);  // 1% deep, facing the camera
   cv::Vec3d axis(0.0, 0.0, 1.0);
   ASSERT_TRUE(g.fitRimPose(rim, centre, position, axis));
@@ -361,17 +374,10 @@ TEST(SpoolGeometry, FitRimPoseFitsTheCentreTooWithinItsReach)
   const SpoolGeometry g(GeometryParams(), camera);
   const cv::Vec3d c(0.05, 0.06, 0.7);
   const cv::Vec3d n(std::sin(35.0 * kDeg), 0.0, std::cos(35.0 * kDeg));
-  const cv::Vec3d a = cv::normalize(cv::Vec3d(0, 1, 0).cross(n));
-  const cv::Vec3d b = n.cross(a);
   cv::RNG rng(11);
   std::vector<cv::Point2f> rim;
-  for (int i = 0; i < 600; ++i)
-  {
-    const double phi = 2.0 * M_PI * i / 600;
-    const cv::Vec3d p = c + 0.175 * (std::cos(phi) * a + std::sin(phi) * b);
-    rim.emplace_back(static_cast<float>(camera.cx + camera.fx * p[0] / p[2] + rng.gaussian(0.2)),
-                     static_cast<float>(camera.cy + camera.fy * p[1] / p[2] + rng.gaussian(0.2)));
-  }
+  for (const cv::Point2d& q : projectedRim(camera, c, n, 600))
+    rim.emplace_back(static_cast<float>(q.x + rng.gaussian(0.2)), static_cast<float>(q.y + rng.gaussian(0.2)));
   const cv::Point2d truth(camera.cx + camera.fx * c[0] / c[2], camera.cy + camera.fy * c[1] / c[2]);
   const cv::Point2d bore = truth + cv::Point2d(-5.0, 0.0);
   const cv::Point3d start(0.0, 0.0, 0.72);
