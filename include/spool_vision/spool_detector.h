@@ -317,6 +317,17 @@ private:
   /// bore (boreAgreesWith). Uses hole_edges_ and own_bores_.
   bool smallerBoreRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                       const HoughSearch& hole_search, const SpoolDetection& result, double least, Circle& hole);
+  /// The best-scoring bore rim of `hole_search` with radius r_min..r_max (px) centred within
+  /// max(2 px, `expected`) of `hole`'s centre (undistorted px), or nullptr (none, or an empty
+  /// range). Points into own_bores_; uses hole_edges_.
+  const Circle* bestBoreAbout(const Circle& hole, double expected, const HoughSearch& hole_search, double r_min,
+                              double r_max);
+  /// A bore rim whose size can be taken as the bore's: at least kMinKnownSizeRadius, its whole rim
+  /// in the frame (kMinHoleVisibleFraction).
+  static bool wholeBoreRim(const Circle& hole);
+  /// The rim about `bore` (RimPoseSearch::search into oblique_rim_) at kObliqueBoreNearest to
+  /// kObliqueBoreFarthest of the depth its size gives (within distance_min..distance_max).
+  bool searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const Circle& bore);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
   /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
   void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);

@@ -385,31 +385,51 @@ bool SpoolDetector::smallerBoreRim(const cv::Mat& image, PixelFormat format, con
   // A circle around an oblique rim and its back flange's silhouette is too large, and the hole
   // measured at the size it gives is too: the bore's own rim is sought at smaller sizes about it.
   const double expected = matcher_.holeRadius(result.flange);
-  const double margin = std::max(2.0, expected);
-  HoughSearch own = hole_search;
-  own.center_window = cv::Rect2d(result.hole.x - margin, result.hole.y - margin, 2.0 * margin, 2.0 * margin);
-  own.r_min = std::max(hole_search.r_min, kSmallerBoreRatio * expected);
-  own.r_max = std::min(hole_search.r_max, kInnerRingRatio * expected);
-  if (own.r_min >= own.r_max)
-    return false;
-  extractHoleEdges(cv::Rect2d(result.hole.x, result.hole.y, 0.0, 0.0), margin + own.r_max + 2.0);
-  hole_hough_.detect(hole_edges_, preprocessed_.size(), own, own_bores_);
-  const auto best = std::max_element(own_bores_.begin(), own_bores_.end(),
-                                     [](const Circle& a, const Circle& b) { return a.score < b.score; });
-  if (best == own_bores_.end() || best->r < kMinKnownSizeRadius ||
-      best->visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
-      signedBoreContrast({best->x, best->y}, best->r) < params_.matcher.bore_contrast)
-    return false;
-  const GeometryParams& gp = params_.geometry;
-  const double depth = geometry.depthFromDiameter(2.0 * best->r * gp.flange_diameter / gp.hole_diameter);
-  if (!rim_pose_search_.search(image, format, geometry, {best->x, best->y},
-                               std::max(gp.distance_min, kObliqueBoreNearest * depth),
-                               std::min(gp.distance_max, kObliqueBoreFarthest * depth),
-                               obliqueRimSearch(best->r * gp.flange_diameter / gp.hole_diameter), oblique_rim_) ||
-      oblique_rim_.support < least || !boreAgreesWith(*best, oblique_rim_))
+  const Circle* best =
+      bestBoreAbout(result.hole, expected, hole_search, std::max(hole_search.r_min, kSmallerBoreRatio * expected),
+                    std::min(hole_search.r_max, kInnerRingRatio * expected));
+  if (!best || !wholeBoreRim(*best) ||
+      signedBoreContrast({best->x, best->y}, best->r) < params_.matcher.bore_contrast ||
+      !searchRimAbout(image, format, geometry, *best) || oblique_rim_.support < least ||
+      !boreAgreesWith(*best, oblique_rim_))
     return false;
   hole = *best;
   return true;
+}
+
+const Circle* SpoolDetector::bestBoreAbout(const Circle& hole, double expected, const HoughSearch& hole_search,
+                                           double r_min, double r_max)
+{
+  // The bore's centre may lie up to the size the flange gives it away from the hole's.
+  const double margin = std::max(2.0, expected);
+  HoughSearch own = hole_search;
+  own.center_window = cv::Rect2d(hole.x - margin, hole.y - margin, 2.0 * margin, 2.0 * margin);
+  own.r_min = r_min;
+  own.r_max = r_max;
+  if (own.r_min >= own.r_max)
+    return nullptr;
+  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), margin + own.r_max + 2.0);
+  hole_hough_.detect(hole_edges_, preprocessed_.size(), own, own_bores_);
+  const auto best = std::max_element(own_bores_.begin(), own_bores_.end(),
+                                     [](const Circle& a, const Circle& b) { return a.score < b.score; });
+  return best == own_bores_.end() ? nullptr : &*best;
+}
+
+bool SpoolDetector::wholeBoreRim(const Circle& hole)
+{
+  return hole.r >= kMinKnownSizeRadius && hole.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction;
+}
+
+bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                   const Circle& bore)
+{
+  // The depth its size gives, and the flange's size there.
+  const GeometryParams& gp = params_.geometry;
+  const double flange_px = bore.r * gp.flange_diameter / gp.hole_diameter;
+  const double depth = geometry.depthFromDiameter(2.0 * flange_px);
+  return rim_pose_search_.search(
+      image, format, geometry, {bore.x, bore.y}, std::max(gp.distance_min, kObliqueBoreNearest * depth),
+      std::min(gp.distance_max, kObliqueBoreFarthest * depth), obliqueRimSearch(flange_px), oblique_rim_);
 }
 
 RimSearch SpoolDetector::obliqueRimSearch(double flange_px) const
@@ -593,7 +613,6 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   if (replacing)
     std::swap(holes_, target_holes_);
   const SpoolGeometry& geometry = *geometry_;
-  const GeometryParams& gp = params_.geometry;
   int tried = 0;
   for (const std::size_t i : order_)
   {
@@ -623,17 +642,11 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       // A bore whose whole rim is in the frame and which shows as a disc (a ring of the bore's
       // size on a neighbour's face cut by the border, or on a plate, is no spool).
       const Circle hole = holes_[h];
-      if (hole.r < kMinKnownSizeRadius || hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
-          boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
+      if (!wholeBoreRim(hole) || boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
         continue;
       ++searched;
-      // The depth its size gives, and the flange's size there.
-      const double depth = geometry.depthFromDiameter(2.0 * hole.r * gp.flange_diameter / gp.hole_diameter);
-      const RimSearch search = obliqueRimSearch(hole.r * gp.flange_diameter / gp.hole_diameter);
-      if (!rim_pose_search_.search(image, format, geometry, {hole.x, hole.y},
-                                   std::max(gp.distance_min, kObliqueBoreNearest * depth),
-                                   std::min(gp.distance_max, kObliqueBoreFarthest * depth), search, oblique_rim_) ||
-          oblique_rim_.support < kObliqueSpoolSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
+      if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < kObliqueSpoolSupport ||
+          !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
           (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
           !boreAgreesWith(hole, oblique_rim_) ||
           ConcentricMatcher::targetCost({hole.x, hole.y}, oblique_rim_.support, reference) >= bound)
@@ -837,22 +850,13 @@ bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hol
     return true;
   }
   // The detected hole can be a smaller circle inside the true bore (its lit part, an arc of its
-  // rim): the bore's centre may lie up to the size the flange gives away.
-  const double margin = std::max(2.0, expected);
-  HoughSearch own = hole_search;
-  own.center_window = cv::Rect2d(hole.x - margin, hole.y - margin, 2.0 * margin, 2.0 * margin);
-  own.r_min = kInnerRingRatio * expected;
-  if (own.r_min >= own.r_max)
-    return false;
-  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), margin + own.r_max + 2.0);
-  hole_hough_.detect(hole_edges_, preprocessed_.size(), own, own_bores_);
-  const auto best = std::max_element(own_bores_.begin(), own_bores_.end(),
-                                     [](const Circle& a, const Circle& b) { return a.score < b.score; });
+  // rim).
+  const Circle* best = bestBoreAbout(hole, expected, hole_search, kInnerRingRatio * expected, hole_search.r_max);
   // The bore's rim at its own size must be better supported than the one the flange's size gave,
   // by kOwnBoreMargin: a faint ring about a true bore (a hub, a chamfer) is not its rim, and a
   // sharp bore whose size the flange gave right supports a circle a pixel or two larger as well
   // as its own (the fit's band): a tie is no evidence.
-  if (best == own_bores_.end())
+  if (!best)
     return false;
   // A tie is evidence where the larger circle holds the hole inside it, well beyond the fit's
   // band: the hole is then the lit lens inside the bore's rim (hard set seed 7 #10: both whole),

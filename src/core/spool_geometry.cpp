@@ -209,13 +209,11 @@ bool SpoolGeometry::fitRimPose(const std::vector<cv::Point2f>& rim, const cv::Po
   Eigen::Vector3d ray = start;
   // Unknowns: depth along `ray` and the normal's slopes (n ~ (a, b, 1)); with a reach, the ray too.
   Eigen::Vector3d p(position.z / ray.z(), axis[0] / axis[2], axis[1] / axis[2]);
-  if (!(centre_reach > 0.0))
-  {
-    if (!fitRim<3>(rim, camera_, radius, ray, p, support))
-      return false;
-  }
-  else if (!fitRim<5>(rim, camera_, radius, ray, p, support) ||
-           !(std::hypot((ray.x() - start.x()) * camera_.fx, (ray.y() - start.y()) * camera_.fy) <= centre_reach))
+  const bool fitted = centre_reach > 0.0 ? fitRim<5>(rim, camera_, radius, ray, p, support) &&
+                                               std::hypot((ray.x() - start.x()) * camera_.fx,
+                                                          (ray.y() - start.y()) * camera_.fy) <= centre_reach
+                                         : fitRim<3>(rim, camera_, radius, ray, p, support);
+  if (!fitted)
     return false;
   toPose(ray, p, position, axis);
   return true;
