@@ -145,10 +145,20 @@ public:
   static constexpr double kMinKnownSizeRadius = 6.0;
   /// Where the whole frame gives no spool, it is searched again with this many times edge_budget,
   /// and a spool is taken from that only where its flange and hole rims both score
-  /// ConcentricMatcher::kSolidRimScore. On the hard and oblique sets of seeds 7 and 11 (640x480
-  /// and 160x120) this found 8 more targets and lost none, one more detection 10% off in depth;
-  /// taking any spool (at 4/3 the budget) found 10 more on seed 7 but put 16 more over 10% off.
+  /// ConcentricMatcher::kSolidRimScore, or where its bore's whole rim is sharp (takesSecondSearch()).
+  /// On the hard and oblique sets of seeds 7 and 11 (640x480 and 160x120) this found 8 more
+  /// targets and lost none, one more detection 10% off in depth; taking any spool (at 4/3 the
+  /// budget) found 10 more on seed 7 but put 16 more over 10% off.
   static constexpr double kRetryBudgetScale = 2.0;
+  /// The second search's spool with a hole rim under kSolidRimScore is taken where its bore, at
+  /// least kMinKnownSizeRadius, scores this and its flange kSecondSearchRimScore: a flange seen
+  /// 26-33 deg off its axis, its rim half hidden by its back flange's silhouette or cut by the
+  /// frame, scores 0.59-0.7 about a sharp dark bore (oblique seed 7 #107, seed 13 #126, #192; hard
+  /// seed 11 #188, seed 13 #85), while clutter's circles found with the larger budget came with a
+  /// hole rim of 0.22-0.89 (oblique seed 7 #85, #124, #157, seed 11 #0, #18, #110). Smaller bores'
+  /// scores say little: at 160x120 4-5 px bores scoring 1.0 came with rib rings 14-44% deep.
+  static constexpr double kSecondSearchBoreScore = 0.95;
+  static constexpr double kSecondSearchRimScore = 0.55;
   /// A free hole fit's centre lies within this fraction of its radius of the bore's.
   static constexpr double kKnownSizeShift = 0.25;
 
@@ -192,6 +202,10 @@ private:
   void refitWeakMatch(const HoughSearch& hole_search, const HoughSearch& flange_search, SpoolMatch& match);
   /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
+  /// Whether the second search's `second` (kRetryBudgetScale) is taken where the first found no
+  /// spool: both its rims solid (ConcentricMatcher::kSolidRimScore), or its bore's whole rim sharp
+  /// (kSecondSearchBoreScore) and its flange kSecondSearchRimScore.
+  static bool takesSecondSearch(const SpoolDetection& second);
   /// The most edges kept from a region of `size` (edge_budget; kRetryBudgetScale times it in the
   /// second search).
   std::size_t edgeBudget(cv::Size size) const;
@@ -365,10 +379,12 @@ private:
   static constexpr int kObliqueHoles = 1;
   static constexpr double kObliqueBoreNearest = 0.7;
   static constexpr double kObliqueBoreFarthest = 1.25;
-  /// A right rim seen 30-40 deg off, its back flange's silhouette beside it, keeps 0.52-0.69 of its
-  /// samples on the fit (oblique seed 7 #42, #56 at 640x480); no ghost passed the guards at 0.55
-  /// on the oblique, hard and packed sets of seeds 7, 11 and 13.
-  static constexpr double kObliqueSpoolSupport = 0.55;
+  /// A right rim seen 26-40 deg off, its back flange's silhouette beside it and its outer edge
+  /// faint against a dark wall, keeps 0.44-0.69 of its samples on the fit (oblique seed 7 #42, #56,
+  /// #140, seed 13 #65 at 640x480). A rib ring about a bore, 54% deep, kept 0.39 (seed 7 #104):
+  /// at 0.45 no rim over 10% off in depth passed the guards on the oblique, hard and packed sets
+  /// of seeds 7, 11 and 13.
+  static constexpr double kObliqueSpoolSupport = 0.45;
   static constexpr std::size_t kMinGatheredRim = 60;
   static constexpr double kObliqueBoreAgreement = 0.2;
 

@@ -299,13 +299,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   {
     // Nothing in the whole frame, whose edges filled the budget: texture elsewhere may have taken
     // the target rim's share (a clear target missed at edge_budget 6, found at 8). Searched again with
-    // kRetryBudgetScale times the budget; what that finds is taken only where both its rims are
-    // solid, since more edges let clutter vote for more false circles too.
+    // kRetryBudgetScale times the budget; what that finds is taken only on strong evidence
+    // (takesSecondSearch()), since more edges let clutter vote for more false circles too.
     search_.second = true;
     const SpoolDetection second = detect(image, format, window);
     const double first_ms = result.time_ms;
-    if (second.hole_detected && second.flange.score >= ConcentricMatcher::kSolidRimScore &&
-        second.hole.score >= ConcentricMatcher::kSolidRimScore)
+    if (takesSecondSearch(second))
       result = second;
     result.time_ms = first_ms + second.time_ms;
   }
@@ -573,6 +572,17 @@ void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection
     move(result.lens.x, result.lens.y);
   if (result.parallax_measured)
     move(result.lens_centroid.x, result.lens_centroid.y);
+}
+
+bool SpoolDetector::takesSecondSearch(const SpoolDetection& second)
+{
+  if (!second.hole_detected)
+    return false;
+  const bool solid = second.flange.score >= ConcentricMatcher::kSolidRimScore &&
+                     second.hole.score >= ConcentricMatcher::kSolidRimScore;
+  const bool sharp_bore = second.hole.r >= kMinKnownSizeRadius && second.hole.score >= kSecondSearchBoreScore &&
+                          second.flange.score >= kSecondSearchRimScore;
+  return solid || sharp_bore;
 }
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
