@@ -404,9 +404,9 @@ TEST(FailureKinds, AnObliqueRimHalfHiddenByItsBackFlangeIsFound)
 // depth within 2%.
 TEST(FailureKinds, TheSecondSearchTakesASpoolAboutASharpWholeBore)
 {
-  for (const auto& [set, seed, index] : {std::tuple{FrameSet::kHard, 11, 188}, std::tuple{FrameSet::kHard, 13, 85},
-                                         std::tuple{FrameSet::kOblique, 7, 107},
-                                         std::tuple{FrameSet::kOblique, 13, 192}})
+  for (const auto& [set, seed, index] :
+       {std::tuple{FrameSet::kHard, 11, 188}, std::tuple{FrameSet::kHard, 13, 85},
+        std::tuple{FrameSet::kOblique, 7, 107}, std::tuple{FrameSet::kOblique, 13, 192}})
   {
     SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index));
     SpoolDetector detector;
