@@ -209,9 +209,13 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       retry && whole_frame && std::isfinite(cost) && searchNearer(reference, flange_search, hole_search, taken, result);
   const bool either = retry && (nearer || !(taken <= result.flange.r)) &&
                       searchEitherPolarity(reference, flange_search, hole_search, taken, result);
+  // The bores lead to a spool only in the frame's last search (a budget-bound first one is
+  // searched again): with twice the budget a flange circle leads to the rim outside a rib ring,
+  // which the bore alone can give (oblique seed 7 #42, #107).
+  const bool last_search = search_.second || !budget_bound;
   const bool oblique =
       !either && !nearer && !along_rim && whole_frame &&
-      obliqueSpool(image, format, reference, hole_search, result.hole_detected ? cost : kNoMatch, result);
+      obliqueSpool(image, format, reference, hole_search, result.hole_detected ? cost : kNoMatch, last_search, result);
   if (along_rim)
   {
     // The moving edges on the rim are its edges, while the flange is theirs.
@@ -614,7 +618,7 @@ void takeSpool(const Circle& flange, const std::optional<Circle>& hole, SpoolDet
 }  // namespace
 
 bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
-                                 const HoughSearch& hole_search, double bound, SpoolDetection& result)
+                                 const HoughSearch& hole_search, double bound, bool bore_led, SpoolDetection& result)
 {
   if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright)
     return false;
@@ -622,7 +626,6 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   const bool replacing = std::isfinite(bound);
   if (replacing)
     std::swap(holes_, target_holes_);
-  const SpoolGeometry& geometry = *geometry_;
   int tried = 0;
   for (const std::size_t i : order_)
   {
@@ -646,31 +649,57 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    int searched = 0;
-    for (std::size_t h = 0; h < holes_.size() && searched < kObliqueHoles; ++h)
-    {
-      // A bore whose whole rim is in the frame and which shows as a disc (a ring of the bore's
-      // size on a neighbour's face cut by the border, or on a plate, is no spool).
-      const Circle hole = holes_[h];
-      if (!wholeBoreRim(hole) || boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
-        continue;
-      ++searched;
-      if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < kObliqueSpoolSupport ||
-          !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
-          (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
-          !boreAgreesWith(hole, oblique_rim_) ||
-          ConcentricMatcher::targetCost({hole.x, hole.y}, oblique_rim_.support, reference) >= bound)
-        continue;
-      takeSpool(oblique_rim_.rim, hole, result);
-      measureBoreAtKnownSize(result);
-      findLens(result);
+    if (spoolAboutHoles(image, format, reference, bound, kObliqueHoles, result))
       return true;
-    }
+  }
+  if (!replacing && bore_led)
+  {
+    // No flange circle led to the spool (a grey face on a dark wall, its rim under the edge
+    // threshold, or a rim too faint to win the budget): the bores nearest the reference over the
+    // whole frame lead to it instead.
+    HoughSearch holes = hole_search;
+    holes.center_window = cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
+    extractHoleEdges(holes.center_window, 0.0);
+    detectHoles(holes);
+    std::sort(holes_.begin(), holes_.end(),
+              [&](const Circle& a, const Circle& b) {
+                return std::hypot(a.x - reference.x, a.y - reference.y) <
+                       std::hypot(b.x - reference.x, b.y - reference.y);
+              });
+    if (spoolAboutHoles(image, format, reference, bound, kBoreLedHoles, result))
+      return true;
   }
   if (replacing)
     std::swap(holes_, target_holes_);
   else
     holes_.clear();  // no target: its hole candidates are none
+  return false;
+}
+
+bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                                    double bound, int max_holes, SpoolDetection& result)
+{
+  const SpoolGeometry& geometry = *geometry_;
+  int searched = 0;
+  for (std::size_t h = 0; h < holes_.size() && searched < max_holes; ++h)
+  {
+    // A bore whose whole rim is in the frame and which shows as a disc (a ring of the bore's
+    // size on a neighbour's face cut by the border, or on a plate, is no spool).
+    const Circle hole = holes_[h];
+    if (!wholeBoreRim(hole) || boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
+      continue;
+    ++searched;
+    if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < kObliqueSpoolSupport ||
+        !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
+        (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
+        !boreAgreesWith(hole, oblique_rim_) ||
+        ConcentricMatcher::targetCost({hole.x, hole.y}, oblique_rim_.support, reference) >= bound)
+      continue;
+    takeSpool(oblique_rim_.rim, hole, result);
+    measureBoreAtKnownSize(result);
+    findLens(result);
+    return true;
+  }
   return false;
 }
 

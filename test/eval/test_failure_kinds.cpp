@@ -419,3 +419,25 @@ TEST(FailureKinds, TheSecondSearchTakesASpoolAboutASharpWholeBore)
     EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
   }
 }
+
+// No flange circle led to the spool: a grey face on a dark grey wall, its rim under edge_threshold
+// in either polarity (hard seed 7 #160), or a flange seen 30-31 deg off whose Hough circle was not
+// among those searched (oblique seed 7 #26, #160, seed 11 #62). The sharp dark bore nearest the
+// reference leads to the rim. Each is found, its depth within 2%.
+TEST(FailureKinds, TheBoreNearestThePullerLeadsToARimNoFlangeCircleFound)
+{
+  for (const auto& [set, seed, index] :
+       {std::tuple{FrameSet::kHard, 7, 160}, std::tuple{FrameSet::kOblique, 7, 26},
+        std::tuple{FrameSet::kOblique, 7, 160}, std::tuple{FrameSet::kOblique, 11, 62}})
+  {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(set, seed, index, 200, 640, detector);
+    const auto target = spool_vision::targetSpool(frame.truth);
+    ASSERT_TRUE(target && target->in_slot);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected);
+    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
+    EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
+  }
+}
