@@ -151,13 +151,17 @@ public:
   /// budget) found 10 more on seed 7 but put 16 more over 10% off.
   static constexpr double kRetryBudgetScale = 2.0;
   /// The second search's spool with a hole rim under kSolidRimScore is taken where its bore, at
-  /// least kMinKnownSizeRadius, scores this and its flange kSecondSearchRimScore: a flange seen
-  /// 26-33 deg off its axis, its rim half hidden by its back flange's silhouette or cut by the
-  /// frame, scores 0.59-0.7 about a sharp dark bore (oblique seed 7 #107, seed 13 #126, #192; hard
-  /// seed 11 #188, seed 13 #85), while clutter's circles found with the larger budget came with a
-  /// hole rim of 0.22-0.89 (oblique seed 7 #85, #124, #157, seed 11 #0, #18, #110). Smaller bores'
-  /// scores say little: at 160x120 4-5 px bores scoring 1.0 came with rib rings 14-44% deep.
+  /// least kSecondSearchBoreRadius, scores kSecondSearchBoreScore and its flange
+  /// kSecondSearchRimScore: a flange seen 26-33 deg off its axis, its rim half hidden by its back
+  /// flange's silhouette or cut by the frame, scores 0.59-0.77 about a sharp dark bore (oblique
+  /// seed 7 #107, seed 13 #126, #192; hard seed 11 #188, seed 13 #85), while clutter's circles
+  /// found with the larger budget came with a hole rim of 0.22-0.89 (oblique seed 7 #85, #124,
+  /// #157, seed 11 #0, #18, #110). Only from 12 px up does a pixel stay under a tenth of the
+  /// bore's size, so that the bore measured at its own size tells a rib ring taken as the flange
+  /// (ownBore()): on smaller bores (8-11 px at 320x240, 4-5 px at 160x120) bores scoring 1.0 came
+  /// with rib rings 13-44% deep.
   static constexpr double kSecondSearchBoreScore = 0.95;
+  static constexpr double kSecondSearchBoreRadius = 12.0;
   static constexpr double kSecondSearchRimScore = 0.55;
   /// A free hole fit's centre lies within this fraction of its radius of the bore's.
   static constexpr double kKnownSizeShift = 0.25;
@@ -204,7 +208,7 @@ private:
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
   /// Whether the second search's `second` (kRetryBudgetScale) is taken where the first found no
   /// spool: both its rims solid (ConcentricMatcher::kSolidRimScore), or its bore's whole rim sharp
-  /// (kSecondSearchBoreScore) and its flange kSecondSearchRimScore.
+  /// (kSecondSearchBoreScore, kSecondSearchBoreRadius and up) and its flange kSecondSearchRimScore.
   static bool takesSecondSearch(const SpoolDetection& second);
   /// The most edges kept from a region of `size` (edge_budget; kRetryBudgetScale times it in the
   /// second search).
@@ -390,12 +394,11 @@ private:
   static constexpr int kBoreLedHoles = 1;
   static constexpr double kObliqueBoreNearest = 0.7;
   static constexpr double kObliqueBoreFarthest = 1.25;
-  /// A right rim seen 26-40 deg off, its back flange's silhouette beside it and its outer edge
-  /// faint against a dark wall, keeps 0.44-0.69 of its samples on the fit (oblique seed 7 #42, #56,
-  /// #140, seed 13 #65 at 640x480). A rib ring about a bore, 54% deep, kept 0.39 (seed 7 #104):
-  /// at 0.45 no rim over 10% off in depth passed the guards on the oblique, hard and packed sets
-  /// of seeds 7, 11 and 13.
-  static constexpr double kObliqueSpoolSupport = 0.45;
+  /// A right rim seen 30-40 deg off, its back flange's silhouette beside it, keeps 0.52-0.69 of its
+  /// samples on the fit (oblique seed 7 #42, #56 at 640x480); no ghost passed the guards at 0.55
+  /// on the oblique, hard and packed sets of seeds 7, 11 and 13. At 0.45, 7 more targets at
+  /// 640x480 (rims at 0.44-0.54) but 8 more detections over 10% off at 320x240 (rib rings).
+  static constexpr double kObliqueSpoolSupport = 0.55;
   static constexpr std::size_t kMinGatheredRim = 60;
   static constexpr double kObliqueBoreAgreement = 0.2;
 

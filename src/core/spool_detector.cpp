@@ -584,7 +584,7 @@ bool SpoolDetector::takesSecondSearch(const SpoolDetection& second)
     return false;
   const bool solid = second.flange.score >= ConcentricMatcher::kSolidRimScore &&
                      second.hole.score >= ConcentricMatcher::kSolidRimScore;
-  const bool sharp_bore = second.hole.r >= kMinKnownSizeRadius && second.hole.score >= kSecondSearchBoreScore &&
+  const bool sharp_bore = second.hole.r >= kSecondSearchBoreRadius && second.hole.score >= kSecondSearchBoreScore &&
                           second.flange.score >= kSecondSearchRimScore;
   return solid || sharp_bore;
 }
