@@ -388,9 +388,12 @@ private:
   static constexpr double kObliqueBoreShift = 0.35;
   static constexpr int kObliqueHoles = 1;
   /// Bores over the whole frame tried where no flange circle led to a spool. On the oblique, hard
-  /// and packed sets of seeds 7, 11 and 13 one found 9 more targets at 640x480 (a grey face on a
-  /// dark wall, its rim under edge_threshold: hard seed 7 #160), lost none and put one more
-  /// detection over 10% off (a neighbour seen 45 deg off its axis); two found nothing more.
+  /// and packed sets of seeds 7, 11 and 13 one found 10 more targets at 640x480 (oblique seed 7
+  /// #26, #160, seed 13 #130: the Hough circle more than a third of its size off the bore, or not
+  /// among the candidates; hard seed 11 #152) and one at 160x120 (hard seed 13 #36), lost none,
+  /// and put one more detection over 10% off (a neighbour seen 45 deg off its axis); two bores
+  /// found nothing more. Run in the first of two searches it took rib rings a flange circle
+  /// would have led past in the second (oblique seed 7 #42, #107).
   static constexpr int kBoreLedHoles = 1;
   static constexpr double kObliqueBoreNearest = 0.7;
   static constexpr double kObliqueBoreFarthest = 1.25;
