@@ -210,8 +210,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const bool either = retry && (nearer || !(taken <= result.flange.r)) &&
                       searchEitherPolarity(reference, flange_search, hole_search, taken, result);
   // The bores lead to a spool only in the frame's last search (a budget-bound first one is
-  // searched again): with twice the budget a flange circle leads to the rim outside a rib ring,
-  // which the bore alone can give (oblique seed 7 #42, #107).
+  // searched again): the bore alone may lead to a rib ring where the second search's flange
+  // circle leads to the rim outside it (oblique seed 7 #42, #107).
   const bool last_search = search_.second || !budget_bound;
   const bool oblique =
       !either && !nearer && !along_rim && whole_frame &&
