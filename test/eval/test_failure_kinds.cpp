@@ -51,6 +51,21 @@ RenderedFrame renderSetFrame(FrameSet set, int seed, int index, int count, int w
   return renderer.render(scene, pose);
 }
 
+// Frame `index` of 200 of `set` from `seed` at `width` columns: the slot's spool is the target,
+// found, its depth within 2%.
+void expectTargetFound(FrameSet set, int seed, int index, int width)
+{
+  SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width));
+  SpoolDetector detector;
+  const RenderedFrame frame = renderSetFrame(set, seed, index, 200, width, detector);
+  const auto target = spool_vision::targetSpool(frame.truth);
+  ASSERT_TRUE(target && target->in_slot);
+  const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
+  EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
+}
+
 struct Case
 {
   SceneParams scene;
@@ -347,17 +362,7 @@ TEST(FailureKinds, AnObliqueRimIsFoundAboutADarkBoreMeasuredOffItsCentre)
 {
   for (const auto& [seed, index] : {std::pair{7, 68}, std::pair{13, 128}, std::pair{7, 42}, std::pair{7, 56},
                                     std::pair{11, 57}, std::pair{13, 133}})
-  {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index));
-    SpoolDetector detector;
-    const RenderedFrame frame = renderSetFrame(FrameSet::kOblique, seed, index, 200, 640, detector);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot);
-    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-    ASSERT_TRUE(d.detected);
-    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
-    EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
-  }
+    expectTargetFound(FrameSet::kOblique, seed, index, 640);
 }
 
 // A circle around an oblique rim and its back flange's silhouette, 12-30% too large, with the hole
@@ -387,17 +392,7 @@ TEST(FailureKinds, TheSecondSearchTakesASpoolAboutASharpWholeBore)
   for (const auto& [set, seed, index] :
        {std::tuple{FrameSet::kHard, 11, 188}, std::tuple{FrameSet::kHard, 13, 85},
         std::tuple{FrameSet::kOblique, 7, 107}, std::tuple{FrameSet::kOblique, 13, 192}})
-  {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index));
-    SpoolDetector detector;
-    const RenderedFrame frame = renderSetFrame(set, seed, index, 200, 640, detector);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot);
-    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-    ASSERT_TRUE(d.detected);
-    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
-    EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
-  }
+    expectTargetFound(set, seed, index, 640);
 }
 
 // No flange circle led to the spool: none was among those searched, or the Hough circle lay more
@@ -410,15 +405,5 @@ TEST(FailureKinds, TheBoreNearestThePullerLeadsToARimNoFlangeCircleFound)
        {std::tuple{FrameSet::kHard, 13, 36, 160}, std::tuple{FrameSet::kOblique, 7, 26, 640},
         std::tuple{FrameSet::kOblique, 7, 160, 640}, std::tuple{FrameSet::kOblique, 11, 62, 640},
         std::tuple{FrameSet::kOblique, 13, 130, 640}})
-  {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width));
-    SpoolDetector detector;
-    const RenderedFrame frame = renderSetFrame(set, seed, index, 200, width, detector);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot);
-    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-    ASSERT_TRUE(d.detected);
-    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
-    EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
-  }
+    expectTargetFound(set, seed, index, width);
 }
