@@ -145,9 +145,14 @@ TEST(SpoolDetector, AGlossyFaceLighterThanTheShelfIsFoundByTheSecondFlangeSearch
   style.hole = 20;
   const cv::Mat img = drawScene({640, 480}, {s}, style);
 
+  // Without the second flange search no flange circle leads to it; the bore nearest the
+  // reference does (its rim measured by moving edges of either polarity).
   DetectorParams dark_only;
   dark_only.hough.flange_retry = spool_vision::FlangeRetry::kNone;
-  EXPECT_FALSE(SpoolDetector(dark_only).detect(img, PixelFormat::kBgr8).detected);
+  const SpoolDetection bore_led = SpoolDetector(dark_only).detect(img, PixelFormat::kBgr8);
+  ASSERT_TRUE(bore_led.detected);
+  EXPECT_NEAR(bore_led.hole.x, s.x, 1.0);
+  EXPECT_NEAR(bore_led.distance, 0.8, 0.01);
 
   const SpoolDetection d = SpoolDetector().detect(img, PixelFormat::kBgr8);
   ASSERT_TRUE(d.detected);
