@@ -654,20 +654,32 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   }
   if (!replacing && bore_led)
   {
-    // No flange circle led to the spool (a grey face on a dark wall, its rim under the edge
-    // threshold, or a rim too faint to win the budget): the bores nearest the reference over the
-    // whole frame lead to it instead.
+    // No flange circle led to the spool (none among the candidates, or its circle a third of its
+    // size off the bore): the bores nearest the reference lead to it instead, over the rows where a
+    // spool's axis can be at the puller's level (atPullerLevel() at distance_min..distance_max)
+    // and at sizes whose rim can be measured (wholeBoreRim()): fewer accumulator cells.
+    const GeometryParams& gp = params_.geometry;
+    const CameraIntrinsics& camera = geometry_->camera();
+    const double above = gp.puller_offset_y - gp.axis_height_tolerance;
+    const double below = gp.puller_offset_y + gp.axis_height_tolerance;
+    const double top = camera.cy + camera.fy * above / (above < 0.0 ? gp.distance_min : gp.distance_max);
+    const double bottom = camera.cy + camera.fy * below / (below > 0.0 ? gp.distance_min : gp.distance_max);
     HoughSearch holes = hole_search;
-    holes.center_window = cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
-    extractHoleEdges(holes.center_window, 0.0);
-    detectHoles(holes);
-    std::sort(holes_.begin(), holes_.end(),
-              [&](const Circle& a, const Circle& b) {
-                return std::hypot(a.x - reference.x, a.y - reference.y) <
-                       std::hypot(b.x - reference.x, b.y - reference.y);
-              });
-    if (spoolAboutHoles(image, format, reference, bound, kBoreLedHoles, result))
-      return true;
+    holes.r_min = std::max(hole_search.r_min, kMinKnownSizeRadius);
+    holes.center_window = cv::Rect2d(0.0, top, preprocessed_.cols, bottom - top) &
+                          cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
+    if (holes.r_min < holes.r_max && !holes.center_window.empty())
+    {
+      extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+      detectHoles(holes);
+      std::sort(holes_.begin(), holes_.end(),
+                [&](const Circle& a, const Circle& b) {
+                  return std::hypot(a.x - reference.x, a.y - reference.y) <
+                         std::hypot(b.x - reference.x, b.y - reference.y);
+                });
+      if (spoolAboutHoles(image, format, reference, bound, kBoreLedHoles, result))
+        return true;
+    }
   }
   if (replacing)
     std::swap(holes_, target_holes_);
