@@ -2,6 +2,7 @@
 #pragma once
 
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -89,6 +90,11 @@ public:
   /// True when that offset is within axis_height_tolerance: a round thing far above or below
   /// the puller's level (a ring on the wall, a can on the board) is no spool to pick.
   bool atPullerLevel(const Circle& flange, double v) const;
+
+  /// The image rows [first, second] (px, undistorted) within which a hole centre of a spool at
+  /// distance_min..distance_max can be atPullerLevel(): cy + fy * (puller_offset_y -/+
+  /// axis_height_tolerance) / depth, each bound at the depth that takes it farthest from cy.
+  std::pair<double, double> pullerLevelRows() const;
 
   /// t_f = (hole - puller) / 2 in metres (0.25 cm for the thesis spool).
   double tolerance() const;

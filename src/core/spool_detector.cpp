@@ -658,12 +658,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
     // size off the bore): the bores nearest the reference lead to it instead, over the rows where a
     // spool's axis can be at the puller's level (atPullerLevel() at distance_min..distance_max)
     // and at sizes whose rim can be measured (wholeBoreRim()): fewer accumulator cells.
-    const GeometryParams& gp = params_.geometry;
-    const CameraIntrinsics& camera = geometry_->camera();
-    const double above = gp.puller_offset_y - gp.axis_height_tolerance;
-    const double below = gp.puller_offset_y + gp.axis_height_tolerance;
-    const double top = camera.cy + camera.fy * above / (above < 0.0 ? gp.distance_min : gp.distance_max);
-    const double bottom = camera.cy + camera.fy * below / (below > 0.0 ? gp.distance_min : gp.distance_max);
+    const auto [top, bottom] = geometry_->pullerLevelRows();
     HoughSearch holes = hole_search;
     holes.r_min = std::max(hole_search.r_min, kMinKnownSizeRadius);
     holes.center_window = cv::Rect2d(0.0, top, preprocessed_.cols, bottom - top) &

@@ -250,6 +250,14 @@ bool SpoolGeometry::atPullerLevel(const Circle& flange, double v) const
   return std::abs(axisHeightOffset(flange, v)) <= params_.axis_height_tolerance;
 }
 
+std::pair<double, double> SpoolGeometry::pullerLevelRows() const
+{
+  const double above = params_.puller_offset_y - params_.axis_height_tolerance;
+  const double below = params_.puller_offset_y + params_.axis_height_tolerance;
+  return {camera_.cy + camera_.fy * above / (above < 0.0 ? params_.distance_min : params_.distance_max),
+          camera_.cy + camera_.fy * below / (below > 0.0 ? params_.distance_min : params_.distance_max)};
+}
+
 cv::Point2d SpoolGeometry::reference(double distance) const
 {
   if (params_.reference_mode == ReferenceMode::kFixed)

@@ -150,6 +150,35 @@ TEST(SpoolGeometry, ASpoolAxisFarFromThePullerLevelIsNoSpoolToPick)
   EXPECT_FALSE(g.atPullerLevel(flange, 59.5 + 15.0 - 200 * 0.11 / 0.8));  // 11 cm above
 }
 
+TEST(SpoolGeometry, PullerLevelRowsBoundEveryHoleAtThePullersLevel)
+{
+  const GeometryParams p;
+  const SpoolGeometry g(p, kThesis);
+  const auto [top, bottom] = g.pullerLevelRows();
+  // Axis 4 cm above the camera (6 - 10 cm) is farthest up at the nearest depth; 16 cm below it at
+  // the nearest depth too.
+  EXPECT_NEAR(top, 59.5 + 200 * (0.06 - 0.1) / p.distance_min, 1e-9);
+  EXPECT_NEAR(bottom, 59.5 + 200 * (0.06 + 0.1) / p.distance_min, 1e-9);
+  // Over the working range, a hole at the puller's level lies between them; just outside, none.
+  for (const double depth : {p.distance_min, 0.5 * (p.distance_min + p.distance_max), p.distance_max})
+  {
+    spool_vision::Circle flange;
+    flange.x = 79.5;
+    flange.r = flange.r_vertical = 200 * 0.175 / depth;
+    for (double v = -50.0; v <= 170.0; v += 0.5)
+      if (g.atPullerLevel(flange, v))
+      {
+        EXPECT_GE(v, top - 1e-6) << depth;
+        EXPECT_LE(v, bottom + 1e-6) << depth;
+      }
+  }
+  // The bounds themselves are reached: at the nearest depth, just inside each.
+  spool_vision::Circle nearest;
+  nearest.r = nearest.r_vertical = 200 * 0.175 / p.distance_min;
+  EXPECT_TRUE(g.atPullerLevel(nearest, top + 0.01));
+  EXPECT_TRUE(g.atPullerLevel(nearest, bottom - 0.01));
+}
+
 TEST(SpoolGeometry, YawBeyondTheLimitIsNotAligned)
 {
   GeometryParams p;
