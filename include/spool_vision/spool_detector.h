@@ -165,6 +165,9 @@ public:
   static constexpr double kSecondSearchRimScore = 0.55;
   /// A free hole fit's centre lies within this fraction of its radius of the bore's.
   static constexpr double kKnownSizeShift = 0.25;
+  /// rad: a spool axis this far off the optical axis puts its bore's lit wall on another side
+  /// than the principal point's (remeasureBoreAlongAxis()).
+  static constexpr double kBoreAxisRemeasureAngle = 10.0 * M_PI / 180.0;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
@@ -260,7 +263,13 @@ private:
   /// behind the lit bore wall, so a free fit comes out small and off centre); kept (true) when its
   /// support passes hole_sensitivity. Its centre is searched within `max_shift` px of the hole's
   /// (default kKnownSizeShift of its radius plus a px).
-  bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt);
+  /// `axis` (unit, camera optical frame, into the spool) says which side of the rim the lit wall
+  /// hides: the one away from the axis's vanishing point.
+  bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt,
+                              const cv::Vec3d& axis = cv::Vec3d(0.0, 0.0, 1.0));
+  /// Seen far off its axis (kBoreAxisRemeasureAngle), the bore measured again at its known size
+  /// with the lit wall on the side the measured axis gives, and the pose measured again on it.
+  void remeasureBoreAlongAxis(const SpoolGeometry& geometry, SpoolDetection& result);
   /// mcht with a dark hole: the tracked flange (flanges_'s only one) and its bore measured at its
   /// known size about the window's centre (where the track puts the bore's front centre), when
   /// that bore passes the concentric rule, lies at the puller's level and counts on its flange

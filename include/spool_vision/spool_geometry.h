@@ -108,12 +108,18 @@ public:
   /// insertion window, |yaw| <= aligned_max_yaw and pullerMiss() within t_f at both ends of the bore (Eq. 3.8, taken
   /// along the bore); Rule 3 (overlapped) is reported but not required.
   void measure(SpoolDetection& detection, const std::vector<cv::Point2f>& rim = {}) const;
+  /// The hole of a measured `detection` moved (measured again): its position back-projected
+  /// through the new hole centre at the same depth, the axis kept, and what measure() derives
+  /// from the pose (yaw, reference, lateral offset, overlap, alignment) derived again.
+  void moveBoreCentre(SpoolDetection& detection) const;
 
 private:
   /// No absurd pose (issue 28): the rim fits' depth within 15% of Eq. 3.2's (`eq32_depth`, m, on
   /// the rim's vertical semi-axis) and the axis within 40 deg of the line of sight (a rim seen
   /// further off was never taken as one); finite.
   static bool plausiblePose(const cv::Point3d& position, const cv::Vec3d& axis, double eq32_depth);
+  /// measure()'s quantities that follow from the detection's position and axis.
+  void measureFromPose(SpoolDetection& d) const;
 
   // fitRimPose() from rimPose()'s pose in `d` and from the flange circle's size; keeps the one
   // more of `rim` supports.

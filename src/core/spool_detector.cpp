@@ -233,10 +233,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   geometry.measure(result, rim_);
   if (whole_frame && !along_rim && result.hole_detected)
     measureObliqueRim(image, format, geometry, hole_search, result);
-  measureBoreParallax(geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
   Circle bore;
   const bool inner_ring = whole_frame && result.hole_detected && ownBore(result, hole_search, bore);
+  if (whole_frame && !along_rim && result.hole_detected && !inner_ring)
+    remeasureBoreAlongAxis(geometry, result);
+  measureBoreParallax(geometry, result);
   toFramePixels(geometry.camera(), result);
   if (inner_ring)
   {
@@ -834,7 +836,8 @@ bool SpoolDetector::boreAtPrediction(const cv::Mat& image, PixelFormat format, c
   return true;
 }
 
-bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift)
+bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift,
+                                           const cv::Vec3d& axis)
 {
   // The bore is a circle on the flange's face, 3.6/35 of it: its ellipse is the flange's, scaled.
   const Circle& flange = result.flange;
@@ -857,15 +860,18 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
                    in_light ? &light : nullptr);
   HoughSearch search;
   search.polarity = params_.hough.hole_polarity;
-  // Deeper in the bore a circle of the wall projects nearer the principal point (as the back
-  // flange does), so the wall near the opening, lit like the face, shows inside the rim on the
-  // side away from it: a band about |hole - principal point| * depth / Z px wide for the ~1.5 cm
-  // of wall the light reaches. Where that is a fraction of a pixel the whole rim counts; else
-  // only its half facing the principal point, which is sharp.
-  const cv::Point2d outward(hole.x - camera.cx, hole.y - camera.cy);
+  // Deeper in the bore a circle of the wall projects nearer the axis's vanishing point (the
+  // principal point for an axis along the line of sight, as the back flange does), so the wall
+  // near the opening, lit like the face, shows inside the rim on the side away from it: a band
+  // about |hole - vanishing point| * a_z * depth / Z px wide for the ~1.5 cm of wall the light
+  // reaches. Where that is a fraction of a pixel the whole rim counts; else only its half facing
+  // the vanishing point, which is sharp.
+  const cv::Point2d vanishing(camera.cx + camera.fx * axis[0] / axis[2], camera.cy + camera.fy * axis[1] / axis[2]);
+  const cv::Point2d outward(hole.x - vanishing.x, hole.y - vanishing.y);
   const double depth = geometry_->depthFromDiameter(2.0 * flange.r_vertical);
   constexpr double kLitWall = 0.015;  // m
-  const cv::Point2d side = std::hypot(outward.x, outward.y) * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
+  const cv::Point2d side =
+      std::hypot(outward.x, outward.y) * axis[2] * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
   Circle fitted;
   if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y, shift,
                                   side, fitted) &&
@@ -875,6 +881,23 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
     return true;
   }
   return false;
+}
+
+void SpoolDetector::remeasureBoreAlongAxis(const SpoolGeometry& geometry, SpoolDetection& result)
+{
+  const cv::Vec3d axis = result.axis;
+  if (!(axis[2] > 0.0) || std::acos(std::min(1.0, axis[2])) < kBoreAxisRemeasureAngle)
+    return;
+  const Circle hole = result.hole;
+  if (!measureBoreAtKnownSize(result, std::nullopt, axis))
+  {
+    result.hole = hole;
+    return;
+  }
+  // The score stays the evidence the spool was taken on (the second search's gate reads it): a
+  // half rim at a given size scores higher than the free fit did.
+  result.hole.score = hole.score;
+  geometry.moveBoreCentre(result);
 }
 
 bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hole_search, Circle& bore)

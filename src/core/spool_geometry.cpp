@@ -353,6 +353,20 @@ void SpoolGeometry::measure(SpoolDetection& d, const std::vector<cv::Point2f>& r
   {
     d.position = backProject(centre.x, centre.y, eq32_depth);
   }
+  measureFromPose(d);
+}
+
+void SpoolGeometry::moveBoreCentre(SpoolDetection& d) const
+{
+  if (!d.detected || !d.hole_detected || !(d.position.z > 0.0))
+    return;
+  d.position = backProject(d.hole.x, d.hole.y, d.position.z);
+  measureFromPose(d);
+}
+
+void SpoolGeometry::measureFromPose(SpoolDetection& d) const
+{
+  const Circle& centre = d.hole_detected ? d.hole : d.flange;
   d.distance = d.position.z;
   d.range = std::sqrt(d.position.dot(d.position));
   if (std::isfinite(d.axis[2]))
