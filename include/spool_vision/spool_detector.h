@@ -263,10 +263,12 @@ private:
   /// behind the lit bore wall, so a free fit comes out small and off centre); kept (true) when its
   /// support passes hole_sensitivity. Its centre is searched within `max_shift` px of the hole's
   /// (default kKnownSizeShift of its radius plus a px).
-  /// `axis` (unit, camera optical frame, into the spool) says which side of the rim the lit wall
-  /// hides: the one away from the axis's vanishing point.
+  /// `axis` (unit, camera optical frame, into the spool; unknown: along the optical axis) says
+  /// which side of the rim the lit wall hides, the one away from the axis's vanishing point, and
+  /// how much narrower than high the bore's ellipse is (the cosine of its angle to the line of
+  /// sight; without an axis, the flange's measured width scaled).
   bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt,
-                              const cv::Vec3d& axis = cv::Vec3d(0.0, 0.0, 1.0));
+                              const std::optional<cv::Vec3d>& axis = std::nullopt);
   /// Seen far off its axis (kBoreAxisRemeasureAngle), the bore measured again at its known size
   /// with the lit wall on the side the measured axis gives, and the pose measured again on it.
   void remeasureBoreAlongAxis(const SpoolGeometry& geometry, SpoolDetection& result);

@@ -837,17 +837,23 @@ bool SpoolDetector::boreAtPrediction(const cv::Mat& image, PixelFormat format, c
 }
 
 bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift,
-                                           const cv::Vec3d& axis)
+                                           const std::optional<cv::Vec3d>& axis)
 {
   // The bore is a circle on the flange's face, 3.6/35 of it: its ellipse is the flange's, scaled.
   const Circle& flange = result.flange;
-  const double scale = matcher_.holeRadius(flange) / flange.r_vertical;
-  const double semi_x = scale * (flange.r_horizontal > 0.0 ? flange.r_horizontal : flange.r);
-  const double semi_y = scale * flange.r_vertical;
-  if (semi_y < kMinKnownSizeRadius)
-    return false;
   Circle& hole = result.hole;
   const CameraIntrinsics& camera = geometry_->camera();
+  const double scale = matcher_.holeRadius(flange) / flange.r_vertical;
+  const double semi_y = scale * flange.r_vertical;
+  // With the spool's axis known, the bore's ellipse narrows across by the cosine of the angle
+  // between the axis and the line of sight to it (a circle this small projects affinely); the
+  // flange's measured width is a looser guide (a near-circle fit to an oblique rim is 5-8% wide).
+  const cv::Vec3d ray =
+      cv::normalize(cv::Vec3d((hole.x - camera.cx) / camera.fx, (hole.y - camera.cy) / camera.fy, 1.0));
+  const double semi_x =
+      axis ? semi_y * std::abs(ray.dot(*axis)) : scale * (flange.r_horizontal > 0.0 ? flange.r_horizontal : flange.r);
+  if (semi_y < kMinKnownSizeRadius)
+    return false;
   const PreprocessParams& pre = params_.preprocess;
   const double sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * camera.fy : 0.0;
   // The rim's edges are placed in the frame's light (a binarized frame has none to read); its
@@ -866,12 +872,13 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
   // about |hole - vanishing point| * a_z * depth / Z px wide for the ~1.5 cm of wall the light
   // reaches. Where that is a fraction of a pixel the whole rim counts; else only its half facing
   // the vanishing point, which is sharp.
-  const cv::Point2d vanishing(camera.cx + camera.fx * axis[0] / axis[2], camera.cy + camera.fy * axis[1] / axis[2]);
+  const cv::Vec3d along = axis.value_or(cv::Vec3d(0.0, 0.0, 1.0));
+  const cv::Point2d vanishing(camera.cx + camera.fx * along[0] / along[2], camera.cy + camera.fy * along[1] / along[2]);
   const cv::Point2d outward(hole.x - vanishing.x, hole.y - vanishing.y);
   const double depth = geometry_->depthFromDiameter(2.0 * flange.r_vertical);
   constexpr double kLitWall = 0.015;  // m
   const cv::Point2d side =
-      std::hypot(outward.x, outward.y) * axis[2] * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
+      std::hypot(outward.x, outward.y) * along[2] * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
   Circle fitted;
   if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y, shift,
                                   side, fitted) &&
