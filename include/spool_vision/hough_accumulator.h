@@ -223,6 +223,13 @@ public:
   bool fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                        const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
                        const cv::Point2d& side, Circle& circle);
+  /// fitCentreAtSize() at the scale of (semi_x, semi_y) in [lo, hi] (steps of kScaleStep) whose
+  /// rim has the most soft support per px of rim and of band: the rim's own size where only its
+  /// shape is known.
+  bool fitCentreAndScale(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
+                         const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
+                         const cv::Point2d& side, double lo, double hi, Circle& circle);
+  static constexpr double kScaleStep = 0.02;
 
   /// How far refitOnMostSupport() looks: the radius within this fraction of the start's, the
   /// centre within kRefitCentreReach of its radius.
@@ -290,6 +297,12 @@ private:
   /// `c` that support it for `sign` (centreSign), each weighted by how close it lies (1 on the
   /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of
   /// a grid step. `count`, if given, gets the plain count.
+  // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start`.
+  cv::Point2d bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band, double max_shift,
+                         float sign, double& best_soft) const;
+  // The rim model at `centre` with its score over near_ (refine()'s, over `side`'s half).
+  bool supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre, double semi_x,
+                 double semi_y, const cv::Point2d& side, Circle& circle) const;
   double ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign, int* count) const;
   /// Fills near_ (near_count_) with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
   /// zero = all round).

@@ -26,6 +26,8 @@ struct RimSearch
   double sigma = 0.0;  ///< px, the Gaussian the profile is smoothed with along the normal (the detector's filter)
   /// At most this many samples of the rim (MovingEdges::kMaxSamples; a coarse look takes fewer)
   int max_samples = 96;
+  /// max_samples counts the samples inside the frame: a rim cut by it is sampled more densely
+  bool samples_in_view = false;
 };
 
 /// Finds a predicted rim in a frame by moving edges and fits the detector's rim model to it.
@@ -37,7 +39,8 @@ public:
   void setCamera(const CameraIntrinsics& camera);
 
   /// Measures `prediction`'s rim in `image` (a frame of `format` from setCamera()'s camera):
-  /// a sample every 5 px of the predicted rim (kMinSamples to search.max_samples, the prediction's circle
+  /// a sample every 5 px of the predicted rim (kMinSamples to search.max_samples, or that many in
+  /// view with search.samples_in_view: up to 4x as many round a rim cut by the frame; the prediction's circle
   /// projected through the pinhole), each moved to the strongest edge of `search.polarity` within
   /// `search.reach` along its normal (the profile read bilinearly on two lines a px apart, smoothed
   /// by `search.sigma`; sub-pixel: a parabola through the gradient's peak). The rim is then the

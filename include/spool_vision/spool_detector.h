@@ -165,9 +165,16 @@ public:
   static constexpr double kSecondSearchRimScore = 0.55;
   /// A free hole fit's centre lies within this fraction of its radius of the bore's.
   static constexpr double kKnownSizeShift = 0.25;
-  /// rad: a spool axis this far off the optical axis puts its bore's lit wall on another side
-  /// than the principal point's (remeasureBoreAlongAxis()).
-  static constexpr double kBoreAxisRemeasureAngle = 10.0 * M_PI / 180.0;
+  /// rad: a spool axis this far off the optical axis (offAxis()) puts its bore's lit wall on
+  /// another side than the principal point's (remeasureBoreAlongAxis()), and its own rim, cut by
+  /// the frame, is sampled as densely as a whole one (measureObliqueRim()).
+  static constexpr double kObliqueAxisAngle = 10.0 * M_PI / 180.0;
+  /// The scales of the bore's ellipse obliqueInnerRing() tries, and the least that says the flange
+  /// is an inner ring: on oblique seeds 7 and 13 at 640x480, the right flanges' bores measured
+  /// 0.94-1.04 of their size (1st-99th percentile 0.72-1.08), rib rings' 1.10-1.32.
+  static constexpr double kOwnScaleMin = 0.7;
+  static constexpr double kOwnScaleMax = 1.35;
+  static constexpr double kObliqueInnerRingScale = 1.1;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
@@ -269,9 +276,32 @@ private:
   /// sight; without an axis, the flange's measured width scaled).
   bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt,
                               const std::optional<cv::Vec3d>& axis = std::nullopt);
-  /// Seen far off its axis (kBoreAxisRemeasureAngle), the bore measured again at its known size
-  /// with the lit wall on the side the measured axis gives, and the pose measured again on it.
-  void remeasureBoreAlongAxis(const SpoolGeometry& geometry, SpoolDetection& result);
+  /// The bore of a spool seen far off its axis (offAxis()) measured again at its known size
+  /// with the lit wall on the side the measured axis gives; the position moved through it.
+  void remeasureBoreAlongAxis(const SpoolGeometry& geometry, const cv::Vec3d& axis, SpoolDetection& result);
+  /// The bore of a spool seen far off its axis (offAxis()) measured at its own size (the
+  /// ellipse's shape as measureBoreAtKnownSize() with the axis sets it, its scale free in
+  /// kOwnScaleMin..kOwnScaleMax: HoughAccumulator::fitCentreAndScale()) into `bore`; true where
+  /// it is kObliqueInnerRingScale or more of the size the flange gives it (the flange is then an
+  /// inner ring: its rib).
+  bool obliqueInnerRing(const SpoolDetection& result, Circle& bore);
+  /// measureBoreAtKnownSize()'s ellipse, centre reach, lit-wall side and search for `result`'s
+  /// bore; none where the bore is under kMinKnownSizeRadius.
+  struct BoreShape
+  {
+    double semi_x = 0.0;  ///< px
+    double semi_y = 0.0;  ///< px
+    double shift = 0.0;   ///< px the centre may move
+    cv::Point2d side;     ///< the sharp half's direction; zero: the whole rim
+    HoughSearch search;
+  };
+  std::optional<BoreShape> boreShape(const SpoolDetection& result, std::optional<double> max_shift,
+                                     const std::optional<cv::Vec3d>& axis);
+  /// hole_edges_: the edges within `reach` px of `hole`'s centre, placed in the frame's light.
+  void extractBoreEdges(const Circle& hole, double reach);
+  /// True where `axis` (unit, camera optical frame) is kObliqueAxisAngle or more off the optical
+  /// axis; false where it is NaN.
+  static bool offAxis(const cv::Vec3d& axis);
   /// mcht with a dark hole: the tracked flange (flanges_'s only one) and its bore measured at its
   /// known size about the window's centre (where the track puts the bore's front centre), when
   /// that bore passes the concentric rule, lies at the puller's level and counts on its flange

@@ -150,6 +150,11 @@ struct FlangeWindow
   /// The window stands for the whole frame (a target hint's area, not a track's prediction): the
   /// whole frame's checks of the chosen spool apply in it (a rib ring taken for the flange)
   bool whole_frame = false;
+  /// The spool's axis (unit, camera optical frame, into the spool) where the caller already
+  /// measured it (an inner ring of the same spool seen far off its axis): the window's bore is
+  /// measured with its lit wall on the side this axis gives. NaN: the window's own pose's.
+  cv::Vec3d spool_axis{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                       std::numeric_limits<double>::quiet_NaN()};
 };
 
 /// What the detector reports for one frame. Undefined numbers are NaN, never stale values.

@@ -1027,17 +1027,11 @@ double HoughAccumulator::ellipseSupport(const cv::Point2d& c, double semi_x, dou
   return soft;
 }
 
-bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                                       const HoughSearch& search, const cv::Point2d& start, double semi_x,
-                                       double semi_y, double max_shift, const cv::Point2d& side, Circle& circle)
+cv::Point2d HoughAccumulator::bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band,
+                                         double max_shift, float sign, double& best_soft) const
 {
-  const float sign = centreSign(search.polarity);
-  const double mean_r = std::sqrt(semi_x * semi_y);
-  const double band = std::max(0.75, 0.04 * mean_r);
-  gatherNear(edges, start, std::min(semi_x, semi_y) - max_shift - band, std::max(semi_x, semi_y) + max_shift + band,
-             side);
   cv::Point2d best = start;
-  double best_soft = -1.0;
+  best_soft = -1.0;
   auto search_grid = [&](const cv::Point2d& around, double reach, double step)
   {
     const cv::Point2d from = around;  // a copy: `around` may be `best`, which moves below
@@ -1060,16 +1054,74 @@ bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::
   search_grid(best, 0.6, 0.3);
   search_grid(best, 0.2, 0.06);
   search_grid(best, 0.04, 0.02);
+  return best;
+}
+
+bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                       const HoughSearch& search, const cv::Point2d& start, double semi_x,
+                                       double semi_y, double max_shift, const cv::Point2d& side, Circle& circle)
+{
+  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double band = std::max(0.75, 0.04 * mean_r);
+  gatherNear(edges, start, std::min(semi_x, semi_y) - max_shift - band, std::max(semi_x, semi_y) + max_shift + band,
+             side);
+  double soft = 0.0;
+  return supportAt(image_size, search,
+                   bestCentre(start, semi_x, semi_y, band, max_shift, centreSign(search.polarity), soft), semi_x,
+                   semi_y, side, circle);
+}
+
+bool HoughAccumulator::fitCentreAndScale(const std::vector<EdgePoint>& edges, cv::Size image_size,
+                                         const HoughSearch& search, const cv::Point2d& start, double semi_x,
+                                         double semi_y, double max_shift, const cv::Point2d& side, double lo, double hi,
+                                         Circle& circle)
+{
+  const double mean_r = std::sqrt(semi_x * semi_y);
+  gatherNear(edges, start, lo * std::min(semi_x, semi_y) - max_shift - 0.04 * hi * mean_r - 0.75,
+             hi * std::max(semi_x, semi_y) + max_shift + 0.04 * hi * mean_r + 0.75, side);
+  const float sign = centreSign(search.polarity);
+  double best_density = -1.0;
+  double best_scale = 1.0;
+  cv::Point2d best_centre = start;
+  const int steps = static_cast<int>(std::floor((hi - lo) / kScaleStep + 1e-9));
+  for (int step = 0; step <= steps; ++step)
+  {
+    const double scale = lo + step * kScaleStep;
+    const double r = scale * mean_r;
+    const double band = std::max(0.75, 0.04 * r);
+    double soft = 0.0;
+    const cv::Point2d c = bestCentre(start, scale * semi_x, scale * semi_y, band, max_shift, sign, soft);
+    // Soft support per px of rim and of band: a larger ellipse is not favoured for its length,
+    // nor a wider band for catching more.
+    const double density = soft / (r * band);
+    if (density > best_density)
+    {
+      best_density = density;
+      best_scale = scale;
+      best_centre = c;
+    }
+  }
+  const double band = std::max(0.75, 0.04 * best_scale * mean_r);
+  gatherNear(edges, best_centre, best_scale * std::min(semi_x, semi_y) - band,
+             best_scale * std::max(semi_x, semi_y) + band, side);
+  return supportAt(image_size, search, best_centre, best_scale * semi_x, best_scale * semi_y, side, circle);
+}
+
+bool HoughAccumulator::supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre,
+                                 double semi_x, double semi_y, const cv::Point2d& side, Circle& circle) const
+{
+  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double band = std::max(0.75, 0.04 * mean_r);
   int count = 0;
-  ellipseSupport(best, semi_x, semi_y, band, sign, &count);
+  ellipseSupport(centre, semi_x, semi_y, band, centreSign(search.polarity), &count);
   if (count < 8)
     return false;
-  circle.x = best.x;
-  circle.y = best.y;
+  circle.x = centre.x;
+  circle.y = centre.y;
   circle.r = 0.5 * (semi_x + semi_y);
   circle.r_vertical = semi_y;
   circle.r_horizontal = semi_x;
-  circle.visible_fraction = visibleRimFraction(best.x, best.y, circle.r, image_size);
+  circle.visible_fraction = visibleRimFraction(centre.x, centre.y, circle.r, image_size);
   const double arc = side == cv::Point2d() ? 1.0 : 0.5;
   circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * mean_r * arc * std::max(circle.visible_fraction, 1e-3)));
   return true;

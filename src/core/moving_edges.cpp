@@ -16,6 +16,8 @@ namespace
 {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kSampleSpacing = 5.0;  // px of rim between samples
+// The least share of a rim in the frame that more samples are spread for (at most 4x as many).
+constexpr double kMinInViewShare = 0.25;
 // A step that a 3x3 Sobel answers with its full scale (4 * 255) rises by 255 over the two pixels
 // a central difference spans: edge_threshold t is a half-difference of t * 127.5 levels per px.
 constexpr double kHalfDifferenceFullScale = 127.5;
@@ -324,8 +326,15 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
   if (!(prediction.centre.z > 0.01) || !(prediction.radius > 0.0))
     return false;
   const double circumference = 2.0 * kPi * camera_.fy * prediction.radius / prediction.centre.z;
+  // A rim cut by the frame keeps as many samples inside it as a whole one would have: the rim
+  // fits after this ask for a number of points, not a fraction of the rim.
+  const double in_view = visibleRimFraction(camera_.fx * prediction.centre.x / prediction.centre.z + camera_.cx,
+                                            camera_.fy * prediction.centre.y / prediction.centre.z + camera_.cy,
+                                            circumference / (2.0 * kPi), image.size());
+  const double cap = std::clamp(search.max_samples, kMinSamples, kMaxSamples) /
+                     (search.samples_in_view ? std::max(in_view, kMinInViewShare) : 1.0);
   const int count = std::clamp(static_cast<int>(circumference / kSampleSpacing), kMinSamples,
-                               std::clamp(search.max_samples, kMinSamples, kMaxSamples));
+                               std::max(kMinSamples, static_cast<int>(cap)));
   if (!project(prediction, count))
     return false;
   std::size_t in_frame = 0;

@@ -233,11 +233,22 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   geometry.measure(result, rim_);
   if (whole_frame && !along_rim && result.hole_detected)
     measureObliqueRim(image, format, geometry, hole_search, result);
-  // A rib ring taken as the flange says so by its bore, measured at the bore's own size.
+  // A rib ring taken as the flange says so by its bore, measured at the bore's own size (seen far
+  // off its axis, with the lit wall on the side the axis gives).
   Circle bore;
-  const bool inner_ring = whole_frame && result.hole_detected && ownBore(result, hole_search, bore);
-  if (whole_frame && !along_rim && result.hole_detected && !inner_ring)
-    remeasureBoreAlongAxis(geometry, result);
+  bool inner_ring = whole_frame && result.hole_detected && ownBore(result, hole_search, bore);
+  // Seen far off its axis, the bore is measured with the lit wall on the side the axis gives: the
+  // whole frame's pose's, or the one an inner ring of the same spool gave the window.
+  const bool axis_given = window && std::isfinite(window->spool_axis[2]);
+  const cv::Vec3d axis = axis_given ? window->spool_axis : result.axis;
+  bool oblique_inner_ring = false;
+  if (((whole_frame && !along_rim) || axis_given) && result.hole_detected && !inner_ring && offAxis(axis))
+  {
+    oblique_inner_ring = whole_frame && obliqueInnerRing(result, bore);
+    inner_ring = oblique_inner_ring;
+    if (!inner_ring)
+      remeasureBoreAlongAxis(geometry, axis, result);
+  }
   measureBoreParallax(geometry, result);
   toFramePixels(geometry.camera(), result);
   if (inner_ring)
@@ -271,6 +282,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                std::abs(rim.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx);
       };
       FlangeWindow around;
+      if (oblique_inner_ring)
+        around.spool_axis = result.axis;
       around.centre = {bore.x, bore.y};
       around.centre_margin = 0.25 * kOuterRimMargin * outer;
       around.radius = 0.5 * (smallest + largest);
@@ -360,10 +373,11 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
 {
   if (!(result.position.z > 0.0) || result.flange.r_vertical < kObliqueRimMinRadius)
     return;
-  const RimSearch search = obliqueRimSearch(result.flange.r_vertical);
+  RimSearch own_search = obliqueRimSearch(result.flange.r_vertical);
+  own_search.samples_in_view = offAxis(result.axis);
   const cv::Point2d bore(result.hole.x, result.hole.y);
   const double own =
-      rim_pose_search_.measure(image, format, geometry, bore, result.position, result.axis, search, own_rim_)
+      rim_pose_search_.measure(image, format, geometry, bore, result.position, result.axis, own_search, own_rim_)
           ? own_rim_.support
           : 0.0;
   // A rim mostly out of the frame has too few samples for any pose's fit: nothing to compare.
@@ -372,7 +386,8 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
   const double least = std::max(own + kObliqueRimMargin, kObliqueRimMinSupport);
   Circle hole = result.hole;
   if (!(rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
-                                kObliqueFarthest * result.position.z, search, oblique_rim_) &&
+                                kObliqueFarthest * result.position.z, obliqueRimSearch(result.flange.r_vertical),
+                                oblique_rim_) &&
         oblique_rim_.support >= least && boreAgreesWith(hole, oblique_rim_)) &&
       !smallerBoreRim(image, format, geometry, hole_search, result, least, hole))
     return;
@@ -836,36 +851,28 @@ bool SpoolDetector::boreAtPrediction(const cv::Mat& image, PixelFormat format, c
   return true;
 }
 
-bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift,
-                                           const std::optional<cv::Vec3d>& axis)
+std::optional<SpoolDetector::BoreShape> SpoolDetector::boreShape(const SpoolDetection& result,
+                                                                 std::optional<double> max_shift,
+                                                                 const std::optional<cv::Vec3d>& axis)
 {
   // The bore is a circle on the flange's face, 3.6/35 of it: its ellipse is the flange's, scaled.
   const Circle& flange = result.flange;
-  Circle& hole = result.hole;
+  const Circle& hole = result.hole;
   const CameraIntrinsics& camera = geometry_->camera();
   const double scale = matcher_.holeRadius(flange) / flange.r_vertical;
-  const double semi_y = scale * flange.r_vertical;
+  BoreShape shape;
+  shape.semi_y = scale * flange.r_vertical;
   // With the spool's axis known, the bore's ellipse narrows across by the cosine of the angle
   // between the axis and the line of sight to it (a circle this small projects affinely); the
   // flange's measured width is a looser guide (a near-circle fit to an oblique rim is 5-8% wide).
   const cv::Vec3d ray =
       cv::normalize(cv::Vec3d((hole.x - camera.cx) / camera.fx, (hole.y - camera.cy) / camera.fy, 1.0));
-  const double semi_x =
-      axis ? semi_y * std::abs(ray.dot(*axis)) : scale * (flange.r_horizontal > 0.0 ? flange.r_horizontal : flange.r);
-  if (semi_y < kMinKnownSizeRadius)
-    return false;
-  const PreprocessParams& pre = params_.preprocess;
-  const double sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * camera.fy : 0.0;
-  // The rim's edges are placed in the frame's light (a binarized frame has none to read); its
-  // profile is read over three filter sigmas, the blur the filter is set for at this size.
-  const bool in_light = pre.binarize == BinarizeType::kNone;
-  const LinearLight light{&preprocessor_.gray(), preprocessor_.linearLight().data(), std::max(2.0, 3.0 * sigma)};
+  shape.semi_x = axis ? shape.semi_y * std::abs(ray.dot(*axis))
+                      : scale * (flange.r_horizontal > 0.0 ? flange.r_horizontal : flange.r);
+  if (shape.semi_y < kMinKnownSizeRadius)
+    return std::nullopt;
   // The free fit's centre can be off by a quarter of the radius; a tracked bore's by its 3 sigma.
-  const double shift = max_shift.value_or(kKnownSizeShift * semi_y + 1.0);
-  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), std::max(semi_x, semi_y) + shift + 2.0,
-                   in_light ? &light : nullptr);
-  HoughSearch search;
-  search.polarity = params_.hough.hole_polarity;
+  shape.shift = max_shift.value_or(kKnownSizeShift * shape.semi_y + 1.0);
   // Deeper in the bore a circle of the wall projects nearer the axis's vanishing point (the
   // principal point for an axis along the line of sight, as the back flange does), so the wall
   // near the opening, lit like the face, shows inside the rim on the side away from it: a band
@@ -877,11 +884,35 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
   const cv::Point2d outward(hole.x - vanishing.x, hole.y - vanishing.y);
   const double depth = geometry_->depthFromDiameter(2.0 * flange.r_vertical);
   constexpr double kLitWall = 0.015;  // m
-  const cv::Point2d side =
-      std::hypot(outward.x, outward.y) * along[2] * kLitWall / depth > 0.3 ? -outward : cv::Point2d();
+  if (std::hypot(outward.x, outward.y) * along[2] * kLitWall / depth > 0.3)
+    shape.side = -outward;
+  shape.search.polarity = params_.hough.hole_polarity;
+  return shape;
+}
+
+void SpoolDetector::extractBoreEdges(const Circle& hole, double reach)
+{
+  const CameraIntrinsics& camera = geometry_->camera();
+  const PreprocessParams& pre = params_.preprocess;
+  const double sigma = pre.filter == FilterType::kGaussian ? pre.filter_sigma * camera.fy : 0.0;
+  // The rim's edges are placed in the frame's light (a binarized frame has none to read); its
+  // profile is read over three filter sigmas, the blur the filter is set for at this size.
+  const bool in_light = pre.binarize == BinarizeType::kNone;
+  const LinearLight light{&preprocessor_.gray(), preprocessor_.linearLight().data(), std::max(2.0, 3.0 * sigma)};
+  extractHoleEdges(cv::Rect2d(hole.x, hole.y, 0.0, 0.0), reach, in_light ? &light : nullptr);
+}
+
+bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift,
+                                           const std::optional<cv::Vec3d>& axis)
+{
+  const std::optional<BoreShape> shape = boreShape(result, max_shift, axis);
+  if (!shape)
+    return false;
+  Circle& hole = result.hole;
+  extractBoreEdges(hole, std::max(shape->semi_x, shape->semi_y) + shape->shift + 2.0);
   Circle fitted;
-  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), search, {hole.x, hole.y}, semi_x, semi_y, shift,
-                                  side, fitted) &&
+  if (hole_hough_.fitCentreAtSize(hole_edges_, preprocessed_.size(), shape->search, {hole.x, hole.y}, shape->semi_x,
+                                  shape->semi_y, shape->shift, shape->side, fitted) &&
       fitted.score >= 1.0 - params_.hough.hole_sensitivity)
   {
     hole = fitted;
@@ -890,11 +921,27 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
   return false;
 }
 
-void SpoolDetector::remeasureBoreAlongAxis(const SpoolGeometry& geometry, SpoolDetection& result)
+bool SpoolDetector::obliqueInnerRing(const SpoolDetection& result, Circle& bore)
 {
-  const cv::Vec3d axis = result.axis;
-  if (!(axis[2] > 0.0) || std::acos(std::min(1.0, axis[2])) < kBoreAxisRemeasureAngle)
-    return;
+  const std::optional<BoreShape> shape = boreShape(result, std::nullopt, result.axis);
+  if (!shape)
+    return false;
+  const Circle& hole = result.hole;
+  extractBoreEdges(hole, kOwnScaleMax * std::max(shape->semi_x, shape->semi_y) + shape->shift + 2.0);
+  if (!hole_hough_.fitCentreAndScale(hole_edges_, preprocessed_.size(), shape->search, {hole.x, hole.y}, shape->semi_x,
+                                     shape->semi_y, shape->shift, shape->side, kOwnScaleMin, kOwnScaleMax, bore) ||
+      bore.score < 1.0 - params_.hough.hole_sensitivity)
+    return false;
+  return bore.r_vertical >= kObliqueInnerRingScale * shape->semi_y;
+}
+
+bool SpoolDetector::offAxis(const cv::Vec3d& axis)
+{
+  return axis[2] > 0.0 && std::acos(std::min(1.0, axis[2])) >= kObliqueAxisAngle;
+}
+
+void SpoolDetector::remeasureBoreAlongAxis(const SpoolGeometry& geometry, const cv::Vec3d& axis, SpoolDetection& result)
+{
   const Circle hole = result.hole;
   if (!measureBoreAtKnownSize(result, std::nullopt, axis))
   {

@@ -490,6 +490,41 @@ TEST(HoughAccumulator, FitCentreAtSizePlacesABlurredHalfRimToAFewHundredthsOfAPi
   EXPECT_GT(at_inset.score, 0.9);
 }
 
+TEST(HoughAccumulator, FitCentreAndScaleMeasuresAHalfRimsOwnSizeWhereOnlyItsShapeIsKnown)
+{
+  // A dark bore seen ~35 deg off its axis (an ellipse 0.8 as wide as high), its far half hidden by
+  // a lit wall band inside it: only the half facing left is its rim. Started from 0.87 of its
+  // size (what a rib ring taken for the flange gives it) and off centre, the scale that the most
+  // edges per px of rim support is its own, 1.15 times the start, within a step.
+  const double x = 300.4;
+  const double y = 250.7;
+  const double semi_y = 24.0;
+  const double semi_x = 0.8 * semi_y;
+  cv::Mat img(480, 640, CV_8UC1, cv::Scalar(150));
+  spool_vision::test::fillEllipse(img, x, y, semi_x, semi_y, 30);
+  // The lit wall: the right part of the opening as light as the face.
+  cv::rectangle(img, cv::Point(static_cast<int>(x + 0.3 * semi_x), 0), cv::Point(639, 479), cv::Scalar(150),
+                cv::FILLED);
+  cv::Mat smooth;
+  cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
+  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.02);
+  HoughSearch search;
+  search.polarity = Polarity::kDark;
+  HoughAccumulator hough;
+  const double start_scale = 1.0 / 1.15;
+  Circle own;
+  ASSERT_TRUE(hough.fitCentreAndScale(edges, img.size(), search, {x + 2.0, y - 1.5}, start_scale * semi_x,
+                                      start_scale * semi_y, 6.0, {-1.0, 0.0}, 0.7, 1.35, own));
+  EXPECT_NEAR(own.r_vertical, semi_y, HoughAccumulator::kScaleStep * semi_y);
+  EXPECT_NEAR(own.x, x, 0.5);
+  EXPECT_NEAR(own.y, y, 0.5);
+  // At the start's size the centre alone cannot put the half rim on it.
+  Circle at_start;
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, {x + 2.0, y - 1.5}, start_scale * semi_x,
+                                    start_scale * semi_y, 6.0, {-1.0, 0.0}, at_start));
+  EXPECT_GT(std::abs(at_start.x - x), 1.5);
+}
+
 TEST(EdgeDetector, ARegionFindsTheWholeFramesEdgesInsideIt)
 {
   SceneStyle style;

@@ -118,6 +118,26 @@ TEST(MovingEdges, ARimCutByTheFrameKeepsItsTrackedShape)
   EXPECT_GT(rim.score, 0.9);  // of the samples inside the frame
 }
 
+TEST(MovingEdges, ARimCutByTheFrameIsSampledAsDenselyInViewAsAWholeOneWhenAsked)
+{
+  // The same cut rim: 96 samples round it leave about 60 in view; counted in view, as many are in
+  // view as a whole rim would have (the cap is spread over the share that shows).
+  const DrawnSpool spool = spoolAt(kVga, 0.55, 0.0, 0.03);
+  const cv::Mat frame = drawScene({640, 480}, {spool});
+  MovingEdges edges = edgesFor(kVga);
+  Circle rim;
+  RimSearch search = searchOf(9.0);
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(spool, -0.02, {2.0, 2.0}), search, rim));
+  const std::size_t around = edges.samplesInFrame();
+  EXPECT_LT(around, 0.8 * search.max_samples);
+  search.samples_in_view = true;
+  Circle dense;
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(spool, -0.02, {2.0, 2.0}), search, dense));
+  EXPECT_GE(edges.samplesInFrame(), 0.9 * search.max_samples);
+  EXPECT_NEAR(dense.r_vertical, spool.flange_r, 0.15);
+  EXPECT_GT(dense.score, 0.9);
+}
+
 TEST(MovingEdges, EveryPixelFormatGivesTheSameRim)
 {
   const DrawnSpool spool = spoolAt(kVga, 0.8, -0.03, 0.02);
