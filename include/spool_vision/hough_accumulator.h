@@ -300,6 +300,10 @@ private:
   // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start`.
   cv::Point2d bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band, double max_shift,
                          float sign, double& best_soft) const;
+  // fitCentreAndScale()'s rating of a centre: the best soft support density over the scales lo +
+  // k kScaleStep, k <= steps (that scale into `scale`).
+  double bestScaleAt(const cv::Point2d& c, double semi_x, double semi_y, double lo, int steps, float sign,
+                     double& scale);
   // The rim model at `centre` with its score over near_ (refine()'s, over `side`'s half).
   bool supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre, double semi_x,
                  double semi_y, const cv::Point2d& side, Circle& circle) const;
@@ -325,6 +329,7 @@ private:
   std::vector<float> vote_weights_;          ///< vote(): cell / r per radius step
   std::vector<int> vote_cells_;              ///< vote(): one edge's cells, one per radius step
   std::vector<double> scores_;
+  std::vector<double> scale_soft_;  ///< bestScaleAt(): soft support per scale
   /// refine(), fitCentreAtSize(): the edges near the circle are the first near_count_ (the
   /// buffer only grows: gatherNear() writes every edge it reads).
   std::vector<EdgePoint> near_;

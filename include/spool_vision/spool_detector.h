@@ -175,6 +175,12 @@ public:
   static constexpr double kOwnScaleMin = 0.7;
   static constexpr double kOwnScaleMax = 1.35;
   static constexpr double kObliqueInnerRingScale = 1.1;
+  /// A rim found about a bore (spoolAboutHoles()) supported on kBoreAgreedSupport of its samples,
+  /// under kObliqueSpoolSupport, is the spool where the bore at its own size agrees with it within
+  /// kOwnScaleAgreement (a rib ring's bore measures 1.1-1.3 of what the ring allows, a joint
+  /// silhouette's under 0.92).
+  static constexpr double kBoreAgreedSupport = 0.3;
+  static constexpr double kOwnScaleAgreement = 0.06;
 
 private:
   const SpoolGeometry& geometryFor(cv::Size size);
@@ -285,6 +291,13 @@ private:
   /// it is kObliqueInnerRingScale or more of the size the flange gives it (the flange is then an
   /// inner ring: its rib).
   bool obliqueInnerRing(const SpoolDetection& result, Circle& bore);
+  /// `spool`'s bore measured at its own size: the ellipse's shape as measureBoreAtKnownSize() sets
+  /// it with `axis`, its scale free in kOwnScaleMin..kOwnScaleMax of the size the flange gives it
+  /// (HoughAccumulator::fitCentreAndScale()); none where its rim scores under hole_sensitivity.
+  std::optional<Circle> boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis);
+  /// Whether `hole`, measured at its own size (boreAtOwnSize(), the axis `fit`'s where it is
+  /// offAxis()), is within kOwnScaleAgreement of the size `fit`'s rim gives it.
+  bool boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit);
   /// measureBoreAtKnownSize()'s ellipse, centre reach, lit-wall side and search for `result`'s
   /// bore; none where the bore is under kMinKnownSizeRadius.
   struct BoreShape

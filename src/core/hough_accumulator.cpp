@@ -1027,33 +1027,90 @@ double HoughAccumulator::ellipseSupport(const cv::Point2d& c, double semi_x, dou
   return soft;
 }
 
-cv::Point2d HoughAccumulator::bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band,
-                                         double max_shift, float sign, double& best_soft) const
+namespace
+{
+// The centre within `reach` px of `start` that `score` rates highest: grids of 1, 0.3, 0.06 and
+// 0.02 px, each reaching a little beyond half the step before it (a soft support peaks smoothly
+// over its band, so its best point is within half a step of the optimum).
+template <typename Score>
+cv::Point2d searchCentre(const cv::Point2d& start, double reach, Score score, double& best_score)
 {
   cv::Point2d best = start;
-  best_soft = -1.0;
-  auto search_grid = [&](const cv::Point2d& around, double reach, double step)
+  best_score = -1.0;
+  auto search_grid = [&](const cv::Point2d& around, double extent, double step)
   {
     const cv::Point2d from = around;  // a copy: `around` may be `best`, which moves below
-    const int steps = static_cast<int>(std::ceil(reach / step));
+    const int steps = static_cast<int>(std::ceil(extent / step));
     for (int iy = -steps; iy <= steps; ++iy)
       for (int ix = -steps; ix <= steps; ++ix)
       {
         const cv::Point2d c(from.x + step * ix, from.y + step * iy);
-        const double soft = ellipseSupport(c, semi_x, semi_y, band, sign, nullptr);
-        if (soft > best_soft)
+        const double value = score(c);
+        if (value > best_score)
         {
-          best_soft = soft;
+          best_score = value;
           best = c;
         }
       }
   };
-  // Coarse to fine: each grid reaches a little beyond half the step before it (the soft count
-  // peaks smoothly over the band, so its best point is within half a step of the optimum).
-  search_grid(start, max_shift, 1.0);
+  search_grid(start, reach, 1.0);
   search_grid(best, 0.6, 0.3);
   search_grid(best, 0.2, 0.06);
   search_grid(best, 0.04, 0.02);
+  return best;
+}
+}  // namespace
+
+cv::Point2d HoughAccumulator::bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band,
+                                         double max_shift, float sign, double& best_soft) const
+{
+  return searchCentre(
+      start, max_shift, [&](const cv::Point2d& c) { return ellipseSupport(c, semi_x, semi_y, band, sign, nullptr); },
+      best_soft);
+}
+
+double HoughAccumulator::bestScaleAt(const cv::Point2d& c, double semi_x, double semi_y, double lo, int steps,
+                                     float sign, double& scale)
+{
+  // ellipseSupport() at every scale s in one pass: an edge at normalised radius rho is off the
+  // scaled ellipse by |rho - s| mean_r px.
+  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double inv_x2 = 1.0 / (semi_x * semi_x);
+  const double inv_y2 = 1.0 / (semi_y * semi_y);
+  auto band_at = [&](int k) { return std::max(0.75, 0.04 * (lo + k * kScaleStep) * mean_r); };
+  const double widest = band_at(steps) / mean_r;
+  scale_soft_.assign(static_cast<std::size_t>(steps) + 1, 0.0);
+  for (std::size_t i = 0; i < near_count_; ++i)
+  {
+    const EdgePoint& e = near_[i];
+    const double vx = e.x - c.x;
+    const double vy = e.y - c.y;
+    if (!radial(vx, vy, vx * vx + vy * vy, e, sign))
+      continue;
+    const double rho = std::sqrt(vx * vx * inv_x2 + vy * vy * inv_y2);
+    const int first = std::max(0, static_cast<int>(std::ceil((rho - widest - lo) / kScaleStep)));
+    const int last = std::min(steps, static_cast<int>(std::floor((rho + widest - lo) / kScaleStep)));
+    for (int k = first; k <= last; ++k)
+    {
+      const double band = band_at(k);
+      const double off = std::abs(rho - (lo + k * kScaleStep)) * mean_r;
+      if (off <= band)
+        scale_soft_[static_cast<std::size_t>(k)] += 1.0 - off / band;
+    }
+  }
+  // Soft support per px of rim and of band: a larger ellipse is not favoured for its length, nor a
+  // wider band for catching more.
+  double best = -1.0;
+  for (int k = 0; k <= steps; ++k)
+  {
+    const double s = lo + k * kScaleStep;
+    const double density = scale_soft_[static_cast<std::size_t>(k)] / (s * mean_r * band_at(k));
+    if (density > best)
+    {
+      best = density;
+      scale = s;
+    }
+  }
   return best;
 }
 
@@ -1080,27 +1137,14 @@ bool HoughAccumulator::fitCentreAndScale(const std::vector<EdgePoint>& edges, cv
   gatherNear(edges, start, lo * std::min(semi_x, semi_y) - max_shift - 0.04 * hi * mean_r - 0.75,
              hi * std::max(semi_x, semi_y) + max_shift + 0.04 * hi * mean_r + 0.75, side);
   const float sign = centreSign(search.polarity);
-  double best_density = -1.0;
-  double best_scale = 1.0;
-  cv::Point2d best_centre = start;
   const int steps = static_cast<int>(std::floor((hi - lo) / kScaleStep + 1e-9));
-  for (int step = 0; step <= steps; ++step)
-  {
-    const double scale = lo + step * kScaleStep;
-    const double r = scale * mean_r;
-    const double band = std::max(0.75, 0.04 * r);
-    double soft = 0.0;
-    const cv::Point2d c = bestCentre(start, scale * semi_x, scale * semi_y, band, max_shift, sign, soft);
-    // Soft support per px of rim and of band: a larger ellipse is not favoured for its length,
-    // nor a wider band for catching more.
-    const double density = soft / (r * band);
-    if (density > best_density)
-    {
-      best_density = density;
-      best_scale = scale;
-      best_centre = c;
-    }
-  }
+  double scale = 1.0;
+  double density = 0.0;
+  const cv::Point2d best_centre = searchCentre(
+      start, max_shift, [&](const cv::Point2d& c) { return bestScaleAt(c, semi_x, semi_y, lo, steps, sign, scale); },
+      density);
+  double best_scale = 1.0;
+  bestScaleAt(best_centre, semi_x, semi_y, lo, steps, sign, best_scale);
   const double band = std::max(0.75, 0.04 * best_scale * mean_r);
   gatherNear(edges, best_centre, best_scale * std::min(semi_x, semi_y) - band,
              best_scale * std::max(semi_x, semi_y) + band, side);

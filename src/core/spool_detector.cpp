@@ -713,7 +713,8 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
     if (!wholeBoreRim(hole) || boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
       continue;
     ++searched;
-    if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < kObliqueSpoolSupport ||
+    if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < kBoreAgreedSupport ||
+        (oblique_rim_.support < kObliqueSpoolSupport && !boreAgreesAtOwnSize(hole, oblique_rim_)) ||
         !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
         (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
         !boreAgreesWith(hole, oblique_rim_) ||
@@ -921,18 +922,38 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
   return false;
 }
 
-bool SpoolDetector::obliqueInnerRing(const SpoolDetection& result, Circle& bore)
+std::optional<Circle> SpoolDetector::boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis)
 {
-  const std::optional<BoreShape> shape = boreShape(result, std::nullopt, result.axis);
+  const std::optional<BoreShape> shape = boreShape(spool, std::nullopt, axis);
   if (!shape)
-    return false;
-  const Circle& hole = result.hole;
+    return std::nullopt;
+  const Circle& hole = spool.hole;
   extractBoreEdges(hole, kOwnScaleMax * std::max(shape->semi_x, shape->semi_y) + shape->shift + 2.0);
+  Circle bore;
   if (!hole_hough_.fitCentreAndScale(hole_edges_, preprocessed_.size(), shape->search, {hole.x, hole.y}, shape->semi_x,
                                      shape->semi_y, shape->shift, shape->side, kOwnScaleMin, kOwnScaleMax, bore) ||
       bore.score < 1.0 - params_.hough.hole_sensitivity)
+    return std::nullopt;
+  return bore;
+}
+
+bool SpoolDetector::obliqueInnerRing(const SpoolDetection& result, Circle& bore)
+{
+  const std::optional<Circle> own = boreAtOwnSize(result, result.axis);
+  if (!own)
     return false;
-  return bore.r_vertical >= kObliqueInnerRingScale * shape->semi_y;
+  bore = *own;
+  return bore.r_vertical >= kObliqueInnerRingScale * matcher_.holeRadius(result.flange);
+}
+
+bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit)
+{
+  SpoolDetection spool;
+  spool.flange = fit.rim;
+  spool.hole = hole;
+  const std::optional<Circle> own =
+      boreAtOwnSize(spool, offAxis(fit.axis) ? std::optional<cv::Vec3d>(fit.axis) : std::nullopt);
+  return own && std::abs(own->r_vertical / matcher_.holeRadius(fit.rim) - 1.0) <= kOwnScaleAgreement;
 }
 
 bool SpoolDetector::offAxis(const cv::Vec3d& axis)
