@@ -229,6 +229,7 @@ public:
   bool fitCentreAndScale(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                          const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
                          const cv::Point2d& side, double lo, double hi, Circle& circle);
+  /// fitCentreAndScale()'s step in scale (a fraction of the given size)
   static constexpr double kScaleStep = 0.02;
 
   /// How far refitOnMostSupport() looks: the radius within this fraction of the start's, the
@@ -297,6 +298,7 @@ private:
   /// `c` that support it for `sign` (centreSign), each weighted by how close it lies (1 on the
   /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of
   /// a grid step. `count`, if given, gets the plain count.
+  double ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign, int* count) const;
   // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start`.
   cv::Point2d bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band, double max_shift,
                          float sign, double& best_soft) const;
@@ -307,7 +309,6 @@ private:
   // The rim model at `centre` with its score over near_ (refine()'s, over `side`'s half).
   bool supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre, double semi_x,
                  double semi_y, const cv::Point2d& side, Circle& circle) const;
-  double ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign, int* count) const;
   /// Fills near_ (near_count_) with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
   /// zero = all round).
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,
