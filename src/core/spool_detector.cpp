@@ -963,15 +963,12 @@ bool SpoolDetector::offAxis(const cv::Vec3d& axis)
 
 void SpoolDetector::remeasureBoreAlongAxis(const SpoolGeometry& geometry, const cv::Vec3d& axis, SpoolDetection& result)
 {
-  const Circle hole = result.hole;
+  const double score = result.hole.score;
   if (!measureBoreAtKnownSize(result, std::nullopt, axis))
-  {
-    result.hole = hole;
     return;
-  }
   // The score stays the evidence the spool was taken on (the second search's gate reads it): a
   // half rim at a given size scores higher than the free fit did.
-  result.hole.score = hole.score;
+  result.hole.score = score;
   geometry.moveBoreCentre(result);
 }
 
