@@ -69,6 +69,20 @@ public:
   {
     return scale_;
   }
+  /// From now until endFrame(), measure() keeps the gray levels of the tiles of the frame its
+  /// rims reach and reads them again for every later rim: a pose search measures dozens of rims on
+  /// one frame. The caller promises that the pixels do not change until endFrame(); another
+  /// buffer, size or format is noticed and converted afresh. Outside beginFrame()..endFrame(),
+  /// each measure() converts what it reads anew. SpoolDetector holds every frame it searches.
+  void beginFrame();
+  /// Ends beginFrame(): the levels kept are forgotten.
+  void endFrame();
+  /// Whether beginFrame() holds a frame.
+  bool holdsFrame() const
+  {
+    return holds_frame_;
+  }
+
   /// The last measure()'s predicted rim (undistorted px), for overlays and tests.
   const std::vector<cv::Point2d>& predictedRim() const
   {
@@ -83,8 +97,10 @@ private:
   /// points_ and normals_: the prediction's rim through the pinhole, `count` samples.
   bool project(const RimPrediction& prediction, int count);
   /// found_ (undistorted px; NaN where no edge qualifies) and how many samples lay inside the frame.
-  template <typename Reader>
-  std::size_t searchNormals(const Reader& reader, cv::Size size, const RimSearch& search);
+  std::size_t searchNormals(const cv::Mat& image, PixelFormat format, const RimSearch& search);
+  /// The tiles of levels_ that `region` (px, clipped to the frame) touches converted from `image`
+  /// where not yet done.
+  void convertTiles(const cv::Mat& image, PixelFormat format, const cv::Rect& region);
   /// on_rim_ and `rim`: the robust fit of found_.
   bool fit(cv::Size size, std::size_t in_frame, Circle& rim);
 
@@ -95,6 +111,16 @@ private:
   std::vector<cv::Point2f> on_rim_;
   std::vector<float> profile_, smoothed_, kernel_;
   std::vector<double> scratch_;
+  // The frame's gray levels (CV_32F, as cv::cvtColor weighs the channels), filled in tiles of
+  // kLevelTile px square as rims reach them: one rim reads a band of the frame, a pose search
+  // dozens of bands over the same pixels.
+  static constexpr int kLevelTile = 16;
+  cv::Mat levels_;
+  std::vector<unsigned char> level_tiles_;    ///< 1 where a tile of levels_ is converted, row-major
+  const unsigned char* levels_of_ = nullptr;  ///< the frame levels_ are of (nullptr: none)
+  bool holds_frame_ = false;
+  PixelFormat levels_format_ = PixelFormat::kMono8;
+  std::size_t levels_step_ = 0;
   std::size_t in_frame_ = 0;
   double scale_ = 1.0;
 };

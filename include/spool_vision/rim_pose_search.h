@@ -39,6 +39,16 @@ public:
   /// The camera of the frames (MovingEdges::setCamera). Throws std::invalid_argument on invalid
   /// intrinsics.
   void setCamera(const CameraIntrinsics& camera);
+  /// MovingEdges::beginFrame() and endFrame(): a frame's gray levels kept over calls. search()
+  /// keeps them over its own poses in any case.
+  void beginFrame()
+  {
+    moving_edges_.beginFrame();
+  }
+  void endFrame()
+  {
+    moving_edges_.endFrame();
+  }
 
   /// The rim of the flange whose bore's front centre shows at `bore` (undistorted px), measured
   /// from the pose (`position`, m; `axis`, unit; camera optical frame; a NaN axis faces the

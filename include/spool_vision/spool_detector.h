@@ -497,6 +497,7 @@ private:
   {
     bool whole_frame = true;  ///< the whole frame (or a window standing for it), not a track's window
     bool second = false;      ///< the whole frame searched again (kRetryBudgetScale)
+    bool nested = false;      ///< within another detect() of the same frame
   };
   SearchSettings search_;
   std::vector<Circle> refit_holes_;    ///< a weak match's while its refit flange is matched (swapped)

@@ -24,50 +24,38 @@ constexpr double kHalfDifferenceFullScale = 127.5;
 // A normal distribution's sigma is 1.4826 median absolute deviations.
 constexpr double kMadToSigma = 1.4826;
 
-// The gray level of one pixel, as cv::cvtColor weighs the channels (ITU-R BT.601).
-struct Mono8
+// A row of gray levels, as cv::cvtColor weighs the channels (ITU-R BT.601), in float: a rim's
+// profile is read between pixels.
+void monoRow(const uchar* p, int cols, float* out)
 {
-  const cv::Mat& m;
-  float operator()(int x, int y) const
-  {
-    return m.ptr<uchar>(y)[x];
-  }
-};
-struct Mono16
+  for (int x = 0; x < cols; ++x)
+    out[x] = p[x];
+}
+void mono16Row(const ushort* p, int cols, float* out)
 {
-  const cv::Mat& m;
-  float operator()(int x, int y) const
-  {
-    return m.ptr<ushort>(y)[x] * (1.0f / 257.0f);  // 65535 -> 255, as Preprocessor::toGray
-  }
-};
+  for (int x = 0; x < cols; ++x)
+    out[x] = p[x] * (1.0f / 257.0f);  // 65535 -> 255, as Preprocessor::toGray
+}
 template <int kChannels, int kBlue, int kRed>
-struct Colour
+void colourRow(const uchar* p, int cols, float* out)
 {
-  const cv::Mat& m;
-  float operator()(int x, int y) const
-  {
-    const uchar* p = m.ptr<uchar>(y) + x * kChannels;
-    return 0.114f * p[kBlue] + 0.587f * p[1] + 0.299f * p[kRed];
-  }
-};
+  for (int x = 0; x < cols; ++x, p += kChannels)
+    out[x] = 0.114f * p[kBlue] + 0.587f * p[1] + 0.299f * p[kRed];
+}
 
-// Bilinear interpolation of a reader's levels at (x, y), inside [0, cols - 1) x [0, rows - 1).
-template <typename Level>
-struct Bilinear
+// Bilinear interpolation of `levels` (CV_32F) at (x, y), inside [0, cols - 1) x [0, rows - 1).
+float bilinear(const cv::Mat& levels, double x, double y)
 {
-  Level level;
-  float operator()(double x, double y) const
-  {
-    const int x0 = static_cast<int>(x);
-    const int y0 = static_cast<int>(y);
-    const float fx = static_cast<float>(x - x0);
-    const float fy = static_cast<float>(y - y0);
-    const float top = level(x0, y0) + fx * (level(x0 + 1, y0) - level(x0, y0));
-    const float bottom = level(x0, y0 + 1) + fx * (level(x0 + 1, y0 + 1) - level(x0, y0 + 1));
-    return top + fy * (bottom - top);
-  }
-};
+  const int x0 = static_cast<int>(x);
+  const int y0 = static_cast<int>(y);
+  const float fx = static_cast<float>(x - x0);
+  const float fy = static_cast<float>(y - y0);
+  const float* upper = levels.ptr<float>(y0) + x0;
+  const float* lower = levels.ptr<float>(y0 + 1) + x0;
+  const float top = upper[0] + fx * (upper[1] - upper[0]);
+  const float bottom = lower[0] + fx * (lower[1] - lower[0]);
+  return top + fy * (bottom - top);
+}
 
 double median(std::vector<double>& v)
 {
@@ -124,9 +112,73 @@ bool MovingEdges::project(const RimPrediction& prediction, int count)
   return true;
 }
 
-template <typename Reader>
-std::size_t MovingEdges::searchNormals(const Reader& reader, cv::Size size, const RimSearch& search)
+void MovingEdges::beginFrame()
 {
+  holds_frame_ = true;
+  levels_of_ = nullptr;
+}
+
+void MovingEdges::endFrame()
+{
+  holds_frame_ = false;
+  levels_of_ = nullptr;
+}
+
+void MovingEdges::convertTiles(const cv::Mat& image, PixelFormat format, const cv::Rect& region)
+{
+  const int tiles_x = (image.cols + kLevelTile - 1) / kLevelTile;
+  if (image.data != levels_of_ || format != levels_format_ || image.step[0] != levels_step_ ||
+      levels_.size() != image.size())
+  {
+    levels_.create(image.size(), CV_32F);
+    level_tiles_.assign(static_cast<std::size_t>(tiles_x) * ((image.rows + kLevelTile - 1) / kLevelTile), 0);
+    levels_of_ = image.data;
+    levels_format_ = format;
+    levels_step_ = image.step[0];
+  }
+  const cv::Rect inside = region & cv::Rect(0, 0, image.cols, image.rows);
+  if (inside.empty())
+    return;
+  for (int ty = inside.y / kLevelTile; ty <= (inside.br().y - 1) / kLevelTile; ++ty)
+    for (int tx = inside.x / kLevelTile; tx <= (inside.br().x - 1) / kLevelTile; ++tx)
+    {
+      unsigned char& done = level_tiles_[static_cast<std::size_t>(ty * tiles_x + tx)];
+      if (done)
+        continue;
+      done = 1;
+      const int x0 = tx * kLevelTile;
+      const int cols = std::min(kLevelTile, image.cols - x0);
+      for (int y = ty * kLevelTile; y < std::min((ty + 1) * kLevelTile, image.rows); ++y)
+      {
+        float* out = levels_.ptr<float>(y) + x0;
+        switch (format)
+        {
+          case PixelFormat::kMono8:
+            monoRow(image.ptr<uchar>(y) + x0, cols, out);
+            break;
+          case PixelFormat::kMono16:
+            mono16Row(image.ptr<ushort>(y) + x0, cols, out);
+            break;
+          case PixelFormat::kBgr8:
+            colourRow<3, 0, 2>(image.ptr<uchar>(y) + 3 * x0, cols, out);
+            break;
+          case PixelFormat::kRgb8:
+            colourRow<3, 2, 0>(image.ptr<uchar>(y) + 3 * x0, cols, out);
+            break;
+          case PixelFormat::kBgra8:
+            colourRow<4, 0, 2>(image.ptr<uchar>(y) + 4 * x0, cols, out);
+            break;
+          case PixelFormat::kRgba8:
+            colourRow<4, 2, 0>(image.ptr<uchar>(y) + 4 * x0, cols, out);
+            break;
+        }
+      }
+    }
+}
+
+std::size_t MovingEdges::searchNormals(const cv::Mat& image, PixelFormat format, const RimSearch& search)
+{
+  const cv::Size size = image.size();
   const int reach = std::max(1, static_cast<int>(std::ceil(search.reach)));
   const int half = search.sigma >= 0.3 ? static_cast<int>(std::ceil(3.0 * search.sigma)) : 0;
   kernel_.resize(static_cast<std::size_t>(2 * half + 1));
@@ -165,13 +217,22 @@ std::size_t MovingEdges::searchNormals(const Reader& reader, cv::Size size, cons
     if (!inside(first - across) || !inside(first + across) || !inside(last - across) || !inside(last + across))
       continue;
     ++in_frame;
+    // The pixels the profile's two lines read (bilinear: the next row and column too).
+    const double xs[] = {first.x - across.x, first.x + across.x, last.x - across.x, last.x + across.x};
+    const double ys[] = {first.y - across.y, first.y + across.y, last.y - across.y, last.y + across.y};
+    const int left = static_cast<int>(*std::min_element(std::begin(xs), std::end(xs)));
+    const int top = static_cast<int>(*std::min_element(std::begin(ys), std::end(ys)));
+    convertTiles(image, format,
+                 cv::Rect(cv::Point(left, top),
+                          cv::Point(static_cast<int>(*std::max_element(std::begin(xs), std::end(xs))) + 2,
+                                    static_cast<int>(*std::max_element(std::begin(ys), std::end(ys))) + 2)));
     // Two parallel lines a px apart, averaged: the filter's smoothing along the rim.
     const cv::Point2d side = 0.5 * across;
     for (int s = -outer; s <= outer; ++s)
     {
       const cv::Point2d q = q0 + s * step;
       profile_[static_cast<std::size_t>(s + outer)] =
-          0.5f * (reader(q.x - side.x, q.y - side.y) + reader(q.x + side.x, q.y + side.y));
+          0.5f * (bilinear(levels_, q.x - side.x, q.y - side.y) + bilinear(levels_, q.x + side.x, q.y + side.y));
     }
     for (int s = -reach - 1; s <= reach + 1; ++s)
     {
@@ -323,6 +384,8 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
   on_rim_.clear();
   found_.clear();
   in_frame_ = 0;
+  if (!holds_frame_)
+    levels_of_ = nullptr;
   if (!(prediction.centre.z > 0.01) || !(prediction.radius > 0.0))
     return false;
   const double circumference = 2.0 * kPi * camera_.fy * prediction.radius / prediction.centre.z;
@@ -337,28 +400,7 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
                                std::max(kMinSamples, static_cast<int>(cap)));
   if (!project(prediction, count))
     return false;
-  std::size_t in_frame = 0;
-  switch (format)
-  {
-    case PixelFormat::kMono8:
-      in_frame = searchNormals(Bilinear<Mono8>{{image}}, image.size(), search);
-      break;
-    case PixelFormat::kMono16:
-      in_frame = searchNormals(Bilinear<Mono16>{{image}}, image.size(), search);
-      break;
-    case PixelFormat::kBgr8:
-      in_frame = searchNormals(Bilinear<Colour<3, 0, 2>>{{image}}, image.size(), search);
-      break;
-    case PixelFormat::kRgb8:
-      in_frame = searchNormals(Bilinear<Colour<3, 2, 0>>{{image}}, image.size(), search);
-      break;
-    case PixelFormat::kBgra8:
-      in_frame = searchNormals(Bilinear<Colour<4, 0, 2>>{{image}}, image.size(), search);
-      break;
-    case PixelFormat::kRgba8:
-      in_frame = searchNormals(Bilinear<Colour<4, 2, 0>>{{image}}, image.size(), search);
-      break;
-  }
+  const std::size_t in_frame = searchNormals(image, format, search);
   in_frame_ = in_frame;
   return fit(image.size(), in_frame, rim);
 }

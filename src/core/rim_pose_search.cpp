@@ -56,6 +56,10 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
   const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
   const double line_of_sight = std::atan2(ray.x, ray.z);
   const int turns = static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9));
+  // Every pose reads the same frame: its gray levels are converted once.
+  const bool held = moving_edges_.holdsFrame();
+  if (!held)
+    moving_edges_.beginFrame();
   // The kRefined poses whose moving edges cover most of the rim (score, depth, yaw).
   struct Pose
   {
@@ -103,6 +107,8 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
   }
   if (found)
     outermost(image, format, geometry, bore, search, best);
+  if (!held)
+    moving_edges_.endFrame();
   return found;
 }
 

@@ -148,6 +148,27 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     }
   } restore{search_, outer};
   search_.whole_frame = whole_frame;
+  // The moving edges keep the frame's gray levels over this search and those nested in it.
+  struct HeldFrame
+  {
+    MovingEdges& edges;
+    RimPoseSearch& poses;
+    bool outermost;
+    ~HeldFrame()
+    {
+      if (outermost)
+      {
+        edges.endFrame();
+        poses.endFrame();
+      }
+    }
+  } held{moving_edges_, rim_pose_search_, !outer.nested};
+  if (held.outermost)
+  {
+    moving_edges_.beginFrame();
+    rim_pose_search_.beginFrame();
+  }
+  search_.nested = true;
 
   SpoolDetection result;
   bool along_rim = window && window->rim.radius > 0.0;

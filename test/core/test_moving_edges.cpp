@@ -167,6 +167,54 @@ TEST(MovingEdges, EveryPixelFormatGivesTheSameRim)
   }
 }
 
+TEST(MovingEdges, AHeldFramesGrayLevelsAreReadAgainUntilTheFrameEnds)
+{
+  // Between beginFrame() and endFrame(), measure() keeps the gray levels of the tiles its rims
+  // reached: a later rim of the same frame reads them, and must come out exactly as a fresh
+  // MovingEdges measures it.
+  const DrawnSpool first = spoolAt(kVga, 0.8, -0.03, 0.02);
+  const DrawnSpool second = spoolAt(kVga, 0.7, 0.04, -0.01);
+  const cv::Mat first_frame = drawScene({640, 480}, {first});
+  const cv::Mat second_frame = drawScene({640, 480}, {second});
+  auto fresh = [](const cv::Mat& frame, const RimPrediction& prediction)
+  {
+    MovingEdges edges = edgesFor(kVga);
+    Circle rim;
+    EXPECT_TRUE(edges.measure(frame, PixelFormat::kBgr8, prediction, searchOf(8.0), rim));
+    return rim;
+  };
+  auto expectSame = [](const Circle& rim, const Circle& expected)
+  {
+    EXPECT_EQ(rim.x, expected.x);
+    EXPECT_EQ(rim.y, expected.y);
+    EXPECT_EQ(rim.r_horizontal, expected.r_horizontal);
+    EXPECT_EQ(rim.r_vertical, expected.r_vertical);
+    EXPECT_EQ(rim.score, expected.score);
+  };
+  MovingEdges edges = edgesFor(kVga);
+  cv::Mat frame = first_frame.clone();
+  Circle rim;
+  edges.beginFrame();
+  // A rim predicted larger than the first reaches tiles the first did not, and some it did.
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(first, -0.02, {2.0, 0.0}), searchOf(8.0), rim));
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(first, 0.03, {0.0, 2.0}), searchOf(8.0), rim));
+  expectSame(rim, fresh(first_frame, predictionOf(first, 0.03, {0.0, 2.0})));
+  // Another frame in another buffer is noticed.
+  ASSERT_TRUE(edges.measure(second_frame, PixelFormat::kBgr8, predictionOf(second, 0.02, {}), searchOf(8.0), rim));
+  expectSame(rim, fresh(second_frame, predictionOf(second, 0.02, {})));
+  // Another frame written into the same buffer is read once the frame held has ended, and
+  // outside a held frame on every call.
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(first, 0.02, {}), searchOf(8.0), rim));
+  second_frame.copyTo(frame);
+  edges.endFrame();
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(second, 0.02, {}), searchOf(8.0), rim));
+  expectSame(rim, fresh(second_frame, predictionOf(second, 0.02, {})));
+  EXPECT_NEAR(rim.x, second.x, 0.1);
+  first_frame.copyTo(frame);
+  ASSERT_TRUE(edges.measure(frame, PixelFormat::kBgr8, predictionOf(first, 0.02, {}), searchOf(8.0), rim));
+  expectSame(rim, fresh(first_frame, predictionOf(first, 0.02, {})));
+}
+
 TEST(MovingEdges, ALensBendsTheNormalsAndTheRimIsMeasuredUndistorted)
 {
   // The frame through a barrel lens; the rim comes back in the undistorted image, where the
