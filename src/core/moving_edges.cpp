@@ -234,12 +234,17 @@ std::size_t MovingEdges::searchNormals(const cv::Mat& image, PixelFormat format,
       profile_[static_cast<std::size_t>(s + outer)] =
           0.5f * (bilinear(levels_, q.x - side.x, q.y - side.y) + bilinear(levels_, q.x + side.x, q.y + side.y));
     }
-    for (int s = -reach - 1; s <= reach + 1; ++s)
+    // Tap by tap over the whole profile (each point's sum still taken in tap order): the loop
+    // over the points vectorises.
+    const std::size_t points = smoothed_.size();
+    std::fill(smoothed_.begin(), smoothed_.end(), 0.0f);
+    for (int k = 0; k <= 2 * half; ++k)
     {
-      float sum = 0.0f;
-      for (int k = -half; k <= half; ++k)
-        sum += kernel_[static_cast<std::size_t>(k + half)] * profile_[static_cast<std::size_t>(s + k + outer)];
-      smoothed_[static_cast<std::size_t>(s + reach + 1)] = sum;
+      const float w = kernel_[static_cast<std::size_t>(k)];
+      const float* in = profile_.data() + (outer - reach - 1 - half + k);
+      float* out = smoothed_.data();
+      for (std::size_t j = 0; j < points; ++j)
+        out[j] += w * in[j];
     }
     // The outward gradient at s (half the central difference), the way the polarity wants it.
     auto gradient = [&](int s)
@@ -391,11 +396,12 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
   const double circumference = 2.0 * kPi * camera_.fy * prediction.radius / prediction.centre.z;
   // A rim cut by the frame keeps as many samples inside it as a whole one would have: the rim
   // fits after this ask for a number of points, not a fraction of the rim.
-  const double in_view = visibleRimFraction(camera_.fx * prediction.centre.x / prediction.centre.z + camera_.cx,
-                                            camera_.fy * prediction.centre.y / prediction.centre.z + camera_.cy,
-                                            circumference / (2.0 * kPi), image.size());
-  const double cap = std::clamp(search.max_samples, kMinSamples, kMaxSamples) /
-                     (search.samples_in_view ? std::max(in_view, kMinInViewShare) : 1.0);
+  const double in_view = search.samples_in_view
+                             ? visibleRimFraction(camera_.fx * prediction.centre.x / prediction.centre.z + camera_.cx,
+                                                  camera_.fy * prediction.centre.y / prediction.centre.z + camera_.cy,
+                                                  circumference / (2.0 * kPi), image.size())
+                             : 1.0;
+  const double cap = std::clamp(search.max_samples, kMinSamples, kMaxSamples) / std::max(in_view, kMinInViewShare);
   const int count = std::clamp(static_cast<int>(circumference / kSampleSpacing), kMinSamples,
                                std::max(kMinSamples, static_cast<int>(cap)));
   if (!project(prediction, count))
