@@ -7,6 +7,7 @@
 
 #include <Eigen/Dense>
 
+#include "cpu_dispatch.h"
 #include "spool_vision/camera_model.h"
 #include "spool_vision/hough_accumulator.h"
 
@@ -37,7 +38,7 @@ void mono16Row(const ushort* p, int cols, float* out)
     out[x] = p[x] * (1.0f / 257.0f);  // 65535 -> 255, as Preprocessor::toGray
 }
 template <int kChannels, int kBlue, int kRed>
-void colourRow(const uchar* p, int cols, float* out)
+SPOOL_VISION_PIXEL_LOOP void colourRow(const uchar* p, int cols, float* out)
 {
   for (int x = 0; x < cols; ++x, p += kChannels)
     out[x] = 0.114f * p[kBlue] + 0.587f * p[1] + 0.299f * p[kRed];
