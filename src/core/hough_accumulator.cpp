@@ -201,6 +201,29 @@ SPOOL_VISION_PIXEL_LOOP void sobel(const cv::Mat& gray8, short* column_sum, shor
     }
   }
 }
+
+// The 3x3 binomial of rows a, b, c at columns 1..cols-2 into out (a per-pixel loop: AVX2 where the
+// CPU has it; each cell's sum in the same order either way).
+SPOOL_VISION_PIXEL_LOOP void binomial3x3Row(const float* a, const float* b, const float* c, int cols, float* out)
+{
+  for (int x = 1; x + 1 < cols; ++x)
+    out[x] = (a[x - 1] + 2 * a[x] + a[x + 1] + 2 * (b[x - 1] + 2 * b[x] + b[x + 1]) + c[x - 1] + 2 * c[x] + c[x + 1]) *
+             (1.0f / 16.0f);
+}
+
+// How many of m[0..count) are at least t2, and the largest of them and `strongest`.
+SPOOL_VISION_PIXEL_LOOP std::size_t countAtLeast(const int* m, int count, int t2, int& strongest)
+{
+  std::size_t above = 0;
+  int largest = strongest;
+  for (int x = 0; x < count; ++x)
+  {
+    above += m[x] >= t2 ? 1u : 0u;
+    largest = std::max(largest, m[x]);
+  }
+  strongest = largest;
+  return above;
+}
 }  // namespace
 
 double visibleRimFraction(double x, double y, double r, cv::Size image_size, const BackFlange& back)
@@ -481,14 +504,7 @@ int EdgeDetector::boundedThreshold(const cv::Rect& area, int t2, std::size_t max
   std::size_t above = 0;
   int strongest = t2;
   for (int y = area.y; y < area.y + area.height; ++y)
-  {
-    const int* m = mag_.ptr<int>(y);
-    for (int x = area.x; x < area.x + area.width; ++x)
-    {
-      above += m[x] >= t2 ? 1u : 0u;
-      strongest = std::max(strongest, m[x]);
-    }
-  }
+    above += countAtLeast(mag_.ptr<int>(y) + area.x, area.width, t2, strongest);
   if (above <= limit)
     return t2;
   const double bin_width = (static_cast<double>(strongest) - t2) / kMagnitudeBins + 1.0;
@@ -664,11 +680,7 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks, const
     const float* a = votes_.ptr<float>(y - 1);
     const float* b = votes_.ptr<float>(y);
     const float* c = votes_.ptr<float>(y + 1);
-    float* out = smoothed_.ptr<float>(y);
-    for (int x = 1; x + 1 < votes_.cols; ++x)
-      out[x] =
-          (a[x - 1] + 2 * a[x] + a[x + 1] + 2 * (b[x - 1] + 2 * b[x] + b[x + 1]) + c[x - 1] + 2 * c[x] + c[x + 1]) *
-          (1.0f / 16.0f);
+    binomial3x3Row(a, b, c, votes_.cols, smoothed_.ptr<float>(y));
   }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
   const float floor_votes = static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
