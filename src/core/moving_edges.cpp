@@ -27,21 +27,42 @@ constexpr double kMadToSigma = 1.4826;
 
 // A row of gray levels, as cv::cvtColor weighs the channels (ITU-R BT.601), in float: a rim's
 // profile is read between pixels.
-void monoRow(const uchar* p, int cols, float* out)
-{
-  for (int x = 0; x < cols; ++x)
-    out[x] = p[x];
-}
-void mono16Row(const ushort* p, int cols, float* out)
-{
-  for (int x = 0; x < cols; ++x)
-    out[x] = p[x] * (1.0f / 257.0f);  // 65535 -> 255, as Preprocessor::toGray
-}
 template <int kChannels, int kBlue, int kRed>
-SPOOL_VISION_PIXEL_LOOP void colourRow(const uchar* p, int cols, float* out)
+inline void colourRow(const uchar* p, int cols, float* out)
 {
   for (int x = 0; x < cols; ++x, p += kChannels)
     out[x] = 0.114f * p[kBlue] + 0.587f * p[1] + 0.299f * p[kRed];
+}
+
+// `cols` pixels of `format` from `p` as gray levels (a per-pixel loop: AVX2 where the CPU has it).
+SPOOL_VISION_PIXEL_LOOP void grayRow(const uchar* p, int cols, PixelFormat format, float* out)
+{
+  switch (format)
+  {
+    case PixelFormat::kMono8:
+      for (int x = 0; x < cols; ++x)
+        out[x] = p[x];
+      break;
+    case PixelFormat::kMono16:
+    {
+      const auto* p16 = reinterpret_cast<const ushort*>(p);
+      for (int x = 0; x < cols; ++x)
+        out[x] = p16[x] * (1.0f / 257.0f);  // 65535 -> 255, as Preprocessor::toGray
+      break;
+    }
+    case PixelFormat::kBgr8:
+      colourRow<3, 0, 2>(p, cols, out);
+      break;
+    case PixelFormat::kRgb8:
+      colourRow<3, 2, 0>(p, cols, out);
+      break;
+    case PixelFormat::kBgra8:
+      colourRow<4, 0, 2>(p, cols, out);
+      break;
+    case PixelFormat::kRgba8:
+      colourRow<4, 2, 0>(p, cols, out);
+      break;
+  }
 }
 
 // Bilinear interpolation of `levels` (CV_32F) at (x, y), inside [0, cols - 1) x [0, rows - 1).
@@ -151,28 +172,7 @@ void MovingEdges::convertTiles(const cv::Mat& image, PixelFormat format, const c
       const int cols = std::min(kLevelTile, image.cols - x0);
       for (int y = ty * kLevelTile; y < std::min((ty + 1) * kLevelTile, image.rows); ++y)
       {
-        float* out = levels_.ptr<float>(y) + x0;
-        switch (format)
-        {
-          case PixelFormat::kMono8:
-            monoRow(image.ptr<uchar>(y) + x0, cols, out);
-            break;
-          case PixelFormat::kMono16:
-            mono16Row(image.ptr<ushort>(y) + x0, cols, out);
-            break;
-          case PixelFormat::kBgr8:
-            colourRow<3, 0, 2>(image.ptr<uchar>(y) + 3 * x0, cols, out);
-            break;
-          case PixelFormat::kRgb8:
-            colourRow<3, 2, 0>(image.ptr<uchar>(y) + 3 * x0, cols, out);
-            break;
-          case PixelFormat::kBgra8:
-            colourRow<4, 0, 2>(image.ptr<uchar>(y) + 4 * x0, cols, out);
-            break;
-          case PixelFormat::kRgba8:
-            colourRow<4, 2, 0>(image.ptr<uchar>(y) + 4 * x0, cols, out);
-            break;
-        }
+        grayRow(image.ptr<uchar>(y) + x0 * image.elemSize(), cols, format, levels_.ptr<float>(y) + x0);
       }
     }
 }
