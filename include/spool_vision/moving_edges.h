@@ -98,6 +98,9 @@ private:
   bool project(const RimPrediction& prediction, int count);
   /// found_ (undistorted px; NaN where no edge qualifies) and how many samples lay inside the frame.
   std::size_t searchNormals(const cv::Mat& image, PixelFormat format, const RimSearch& search);
+  /// levels_ for `image`: kept where the frame held is the same (buffer, format, step, size),
+  /// else sized for it with no tile converted.
+  void keepLevelsOf(const cv::Mat& image, PixelFormat format);
   /// The tiles of levels_ that `region` (px, clipped to the frame) touches converted from `image`
   /// where not yet done.
   void convertTiles(const cv::Mat& image, PixelFormat format, const cv::Rect& region);

@@ -143,21 +143,25 @@ void MovingEdges::beginFrame()
 void MovingEdges::endFrame()
 {
   holds_frame_ = false;
-  levels_of_ = nullptr;
+}
+
+void MovingEdges::keepLevelsOf(const cv::Mat& image, PixelFormat format)
+{
+  if (holds_frame_ && image.data == levels_of_ && format == levels_format_ && image.step[0] == levels_step_ &&
+      levels_.size() == image.size())
+    return;
+  levels_.create(image.size(), CV_32F);
+  level_tiles_.assign(static_cast<std::size_t>((image.cols + kLevelTile - 1) / kLevelTile) *
+                          ((image.rows + kLevelTile - 1) / kLevelTile),
+                      0);
+  levels_of_ = image.data;
+  levels_format_ = format;
+  levels_step_ = image.step[0];
 }
 
 void MovingEdges::convertTiles(const cv::Mat& image, PixelFormat format, const cv::Rect& region)
 {
   const int tiles_x = (image.cols + kLevelTile - 1) / kLevelTile;
-  if (image.data != levels_of_ || format != levels_format_ || image.step[0] != levels_step_ ||
-      levels_.size() != image.size())
-  {
-    levels_.create(image.size(), CV_32F);
-    level_tiles_.assign(static_cast<std::size_t>(tiles_x) * ((image.rows + kLevelTile - 1) / kLevelTile), 0);
-    levels_of_ = image.data;
-    levels_format_ = format;
-    levels_step_ = image.step[0];
-  }
   const cv::Rect inside = region & cv::Rect(0, 0, image.cols, image.rows);
   if (inside.empty())
     return;
@@ -171,9 +175,7 @@ void MovingEdges::convertTiles(const cv::Mat& image, PixelFormat format, const c
       const int x0 = tx * kLevelTile;
       const int cols = std::min(kLevelTile, image.cols - x0);
       for (int y = ty * kLevelTile; y < std::min((ty + 1) * kLevelTile, image.rows); ++y)
-      {
         grayRow(image.ptr<uchar>(y) + x0 * image.elemSize(), cols, format, levels_.ptr<float>(y) + x0);
-      }
     }
 }
 
@@ -390,8 +392,7 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
   on_rim_.clear();
   found_.clear();
   in_frame_ = 0;
-  if (!holds_frame_)
-    levels_of_ = nullptr;
+  keepLevelsOf(image, format);
   if (!(prediction.centre.z > 0.01) || !(prediction.radius > 0.0))
     return false;
   const double circumference = 2.0 * kPi * camera_.fy * prediction.radius / prediction.centre.z;
