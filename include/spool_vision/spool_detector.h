@@ -132,6 +132,8 @@ public:
   static constexpr double kNearAxisAspect = 0.93;
   /// ... where the hole's rim scores this much (nearly whole: its size is then measured).
   static constexpr double kSharpHoleScore = 0.8;
+  /// A bore rim this whole is sharp enough for bearingSupport().
+  static constexpr double kSharpBoreScore = 0.95;
   /// Around a tracked rim's hole window the pixels within this many of its largest radius are
   /// preprocessed: the bore's disc contrast reads a ring out to twice its radius.
   static constexpr double kDiscReach = 2.2;
@@ -213,6 +215,14 @@ private:
   /// and its radius there (z), px.
   cv::Point3d inFrame(const cv::Point2d& centre, double r) const;
   static constexpr double kLensCore = 0.8;
+  /// The rim support a spool's bearing is weighed with (ConcentricMatcher::targetCost()): its
+  /// flange's score, or, about a sharp bore (kSharpBoreScore, kMinKnownSizeRadius and up), its
+  /// cube root relative to kSolidRimScore. targetCost() guards against a weak circle closed by
+  /// arcs of several objects in the middle of the frame; a circle with a sharp bore of its own
+  /// size at its centre is no such ghost, and a glossy band or a dark wall that leaves its rim at
+  /// 0.5 must not hand the target to a neighbour 15% farther off the puller (hard seed 7 #40 at
+  /// 1280x720, hard seed 11 #68 at 640x480).
+  static double bearingSupport(const SpoolMatch& match);
   /// A candidate's match whose hole scores under kSharpHoleScore, with its flange fitted again on
   /// the circle nearby that the most edges support (HoughAccumulator::refitOnMostSupport):
   /// replaced by that flange's match where its hole scores kSharpHoleScore (a weak ring on a
@@ -362,8 +372,10 @@ private:
   /// neighbour), is the spool: `result` (undistorted px, its rim in oblique_rim_) and true.
   /// With `bore_led` and no spool taken, where no candidate gives one, the kBoreLedHoles bores
   /// nearest the reference found over the whole frame are searched the same way.
+  /// The candidates are `flanges`, tried in order of ConcentricMatcher::targetCost().
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
-                    const HoughSearch& hole_search, double bound, bool bore_led, SpoolDetection& result);
+                    const std::vector<Circle>& flanges, const HoughSearch& hole_search, double bound, bool bore_led,
+                    SpoolDetection& result);
   /// obliqueSpool()'s search about the first `max_holes` of holes_ that are whole bore rims
   /// showing as discs: the first rim that passes its guards is the spool (`result`) and true.
   bool spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference, double bound,
@@ -502,10 +514,13 @@ private:
   SearchSettings search_;
   std::vector<Circle> refit_holes_;    ///< a weak match's while its refit flange is matched (swapped)
   std::vector<Circle> first_flanges_;  ///< the first search's candidates during the flange_retry search
+  /// searchNearer()'s candidates where they gave no spool: obliqueSpool() tries them too
+  std::vector<Circle> nearer_flanges_;
   std::vector<Circle> lenses_;
   std::vector<Circle> own_bores_;    ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;  ///< measureLens()'s scratch
   std::vector<std::size_t> order_;
+  std::vector<std::size_t> oblique_order_;  ///< obliqueSpool()'s candidates in order
 };
 
 }  // namespace spool_vision

@@ -39,14 +39,15 @@ SceneParams webcamScene()
   return s;
 }
 
-// Frame `index` of `count` of `set` drawn from `seed`, rendered at `width` columns (4:3);
-// `detector` gets the set's camera.
-RenderedFrame renderSetFrame(FrameSet set, int seed, int index, int count, int width, SpoolDetector& detector)
+// Frame `index` of `count` of `set` drawn from `seed`, rendered at `width` columns and `height`
+// rows (0: 4:3); `detector` gets the set's camera.
+RenderedFrame renderSetFrame(FrameSet set, int seed, int index, int count, int width, SpoolDetector& detector,
+                             int height = 0)
 {
   SceneParams scene;
   CameraPose pose;
   spool_vision::setFrame(set, seed, index, count, scene, pose);
-  const SpoolRenderer renderer(spool_vision::setCamera(set, {width, width * 3 / 4}));
+  const SpoolRenderer renderer(spool_vision::setCamera(set, {width, height > 0 ? height : width * 3 / 4}));
   detector.setCamera(renderer.camera());
   return renderer.render(scene, pose);
 }
@@ -231,12 +232,12 @@ namespace
 {
 // Frame `index` of `count` of `set` (seed `seed`) at `width` columns: the detector's flange is
 // the target's.
-void expectTargetFlange(int seed, int index, int count, FrameSet set = FrameSet::kHard, int width = 640)
+void expectTargetFlange(int seed, int index, int count, FrameSet set = FrameSet::kHard, int width = 640, int height = 0)
 {
   SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width) +
                " columns");
   SpoolDetector detector;
-  const RenderedFrame frame = renderSetFrame(set, seed, index, count, width, detector);
+  const RenderedFrame frame = renderSetFrame(set, seed, index, count, width, detector, height);
   const auto target = spool_vision::targetSpool(frame.truth);
   ASSERT_TRUE(target);
   const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
@@ -467,4 +468,28 @@ TEST(FailureKinds, AWeakRimAboutASharpBoreIsTheSpoolWhereTheBoresOwnSizeAgrees)
   for (const auto& [set, seed, index] : {std::tuple{FrameSet::kHard, 7, 160}, std::tuple{FrameSet::kOblique, 7, 140},
                                          std::tuple{FrameSet::kOblique, 13, 156}})
     expectTargetFound(set, seed, index, 640);
+}
+
+// The target's Hough circle was the weak one (0.32) searchNearer() found: 8% too large and 26 px
+// above its bore, whose lit lens splits its rim, so no bore lay in its concentric window, and a
+// neighbour 25 deg off was reported (hard seed 7 #160 at 1280x720). Seen 36-38 deg off its axis,
+// the slot's spool gave only such a circle, and a neighbour 15-19 deg off was reported 21-22%
+// nearer (oblique seed 13 #170, #172). The bore within a third of that circle's size leads to
+// the rim.
+TEST(FailureKinds, AWeakCircleNearerThePullerLeadsToTheBoreBesideIt)
+{
+  expectTargetFlange(7, 160, 200, FrameSet::kHard, 1280, 720);
+  expectTargetFlange(13, 170, 200, FrameSet::kOblique);
+  expectTargetFlange(13, 172, 200, FrameSet::kOblique);
+}
+
+// Two spools about sharp bores, 11 and 12 deg off the puller: the nearer one's grey face with a
+// glossy band on a dark shelf supports 0.49-0.57 of its rim, the other's 0.73-0.8, and the rim
+// weighting handed the target to the farther one (hard seed 7 #40 at 1280x720; hard seed 11 #68
+// at 640x480, 15 deg off against 17, its rim at 0.66 against 0.99). About a sharp bore the rim's support weighs less
+// (SpoolDetector::bearingSupport()).
+TEST(FailureKinds, ASpoolAboutASharpBoreIsNotPassedOverForASolidRimFartherOff)
+{
+  expectTargetFlange(7, 40, 200, FrameSet::kHard, 1280, 720);
+  expectTargetFlange(11, 68, 200, FrameSet::kHard);
 }
