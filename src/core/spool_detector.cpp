@@ -301,6 +301,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     // the inner ring taken (faces carry them at 0.86 of the rim: hard set seed 7 #10) is no
     // flange, but the next rim is searched above it.
     double below = result.flange.r_vertical;
+    const bool near_axis =
+        !(result.flange.r_horizontal > 0.0) || result.flange.r_horizontal >= kNearAxisAspect * result.flange.r_vertical;
     for (int ring = 0; ring < kMaxRibRings; ++ring)
     {
       const double inner = result.flange.r_vertical;
@@ -310,10 +312,17 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
         break;
       auto concentric = [&](const SpoolDetection& rim)
       { return rim.hole_detected && std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement; };
+      // Near the axis, a rim whole in the frame needs the support the frame's search asks: the
+      // window's lower bar stands for a rim the border cuts, and a faint circle just outside a
+      // sharp whole rim (0.27-0.37 about a lit lens whose bore measured 4-5% large: hard seed 19
+      // #48, #147 at 320x240) is no flange. Far off the axis a circle follows the rim's ellipse in
+      // part only (0.3 on oblique seed 13 #42, the flange outside a rib ring).
       auto agrees = [&](const SpoolDetection& rim)
       {
         return concentric(rim) && rim.flange.r_vertical >= smallest &&
-               std::abs(rim.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx);
+               std::abs(rim.hole.r - bore.r) <= std::max(kOuterRimMargin * bore.r, kOwnBoreAgreementPx) &&
+               (!near_axis || rim.flange.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
+                rim.flange.score >= flange_search.min_score);
       };
       FlangeWindow around;
       if (oblique_inner_ring)
@@ -1044,7 +1053,12 @@ bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hol
   // by kOwnBoreMargin: a faint ring about a true bore (a hub, a chamfer) is not its rim, and a
   // sharp bore whose size the flange gave right supports a circle a pixel or two larger as well
   // as its own (the fit's band): a tie is no evidence.
-  if (!best)
+  // It is the bore about the spool's axis only where it is about as near the flange's centre as
+  // the hole is: the lit lens the hole may be lies off the axis, not the bore (hard seed 7 #10:
+  // the bore 3 px off the flange's centre, the lens 9), and a circle 9 px off a hole on the axis
+  // is another ring (hard seed 19 #121 at 320x240: a rim 1.8 times the flange was taken outside it).
+  if (!best || std::hypot(best->x - result.flange.x, best->y - result.flange.y) >
+                   std::hypot(hole.x - result.flange.x, hole.y - result.flange.y) + matcher_.tolerancePx())
     return false;
   // A tie is evidence where the larger circle holds the hole inside it, well beyond the fit's
   // band: the hole is then the lit lens inside the bore's rim (hard set seed 7 #10: both whole),
