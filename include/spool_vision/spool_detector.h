@@ -376,6 +376,16 @@ private:
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                     const std::vector<Circle>& flanges, const HoughSearch& hole_search, double bound, bool bore_led,
                     SpoolDetection& result);
+  /// Where no spool was found: the first kObliqueCandidates flange candidates nearest the reference
+  /// (ConcentricMatcher::targetCost()) searched for a bore in their concentric window larger than
+  /// the match allows them (1 + hole_ratio_tolerance times the size they give it, up to
+  /// kRibRingBoreMax), sharp (kSharpBoreScore), whole in the frame and kMinKnownSizeRadius and up,
+  /// at the puller's level. Such a candidate is a rib ring (issue 28: "a candidate whose bore
+  /// measures larger than its size allows is a rib or an inner ring, not the flange"): `result`
+  /// holds it and its bore (undistorted px) for detect()'s outer-rim search, which must find the
+  /// flange outside it, and true. Hard seed 7 #10 at 160x120: a face at 0.51 m overfilling the
+  /// frame, its bore's lens lit, the ring at 0.65 of the rim with a bore 1.5 times what it allows.
+  bool ringAboutLargeBore(const cv::Point2d& reference, const HoughSearch& hole_search, SpoolDetection& result);
   /// obliqueSpool()'s search about the first `max_holes` of holes_ that are whole bore rims
   /// showing as discs: the first rim that passes its guards is the spool (`result`) and true.
   bool spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference, double bound,
@@ -451,6 +461,8 @@ private:
   /// candidate, the depths it tries about the hole's (a dark bore's rim seen obliquely measures
   /// within ~15% of its size) and the support its rim needs.
   static constexpr int kObliqueCandidates = 2;
+  /// ringAboutLargeBore()'s largest bore, of the size a candidate gives it: a rib at 0.56 of the rim.
+  static constexpr double kRibRingBoreMax = 1.8;
   static constexpr double kObliqueBoreShift = 0.35;
   static constexpr int kObliqueHoles = 1;
   /// Bores over the whole frame tried where no flange circle led to a spool. On the oblique, hard

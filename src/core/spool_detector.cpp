@@ -250,6 +250,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                                      result.hole_detected ? cost : kNoMatch, last_search, result) ||
                         (result.hole_detected && !nearer_flanges_.empty() &&
                          obliqueSpool(image, format, reference, nearer_flanges_, hole_search, cost, false, result)));
+  // No spool, but a circle about a sharp bore too large for it: a rib ring, whose flange is searched
+  // outside it below (and without which it is no spool). In either search: this leads outwards.
+  const bool bare_ring =
+      !result.detected && !along_rim && whole_frame && ringAboutLargeBore(reference, hole_search, result);
   if (along_rim)
   {
     // The moving edges on the rim are its edges, while the flange is theirs.
@@ -285,6 +289,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   }
   measureBoreParallax(geometry, result);
   toFramePixels(geometry.camera(), result);
+  bool outer_taken = false;
   if (inner_ring)
   {
     // The flange is then the outermost concentric rim that agrees with the bore's size (a face may
@@ -353,9 +358,14 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
         break;
       below = rim.flange.r_vertical;
       if (taken)
+      {
         result = rim;
+        outer_taken = true;
+      }
     }
   }
+  if (bare_ring && !outer_taken)
+    result = SpoolDetection();
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (!window && !result.detected && budget_bound && !search_.second)
   {
@@ -743,6 +753,46 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
     std::swap(holes_, target_holes_);
   else
     holes_.clear();  // no target: its hole candidates are none
+  return false;
+}
+
+bool SpoolDetector::ringAboutLargeBore(const cv::Point2d& reference, const HoughSearch& hole_search,
+                                       SpoolDetection& result)
+{
+  ConcentricMatcher::orderByReference(flanges_, reference, oblique_order_);
+  int tried = 0;
+  for (const std::size_t i : oblique_order_)
+  {
+    if (tried++ == kObliqueCandidates)
+      break;
+    const Circle& ring = flanges_[i];
+    HoughSearch holes = hole_search;
+    if (!matcher_.narrowHoleSearch(ring, preprocessed_.size(), holes))
+      continue;
+    // Beyond the sizes the match allows the ring, up to a bore kRibRingBoreMax times them.
+    const double expected = matcher_.holeRadius(ring);
+    holes.r_min =
+        std::max({hole_search.r_min, (1.0 + params_.matcher.hole_ratio_tolerance) * expected, kMinKnownSizeRadius});
+    holes.r_max = std::min(hole_search.r_max, kRibRingBoreMax * expected);
+    if (holes.r_min >= holes.r_max)
+      continue;
+    extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+    detectHoles(holes);
+    for (const Circle& bore : holes_)
+    {
+      // At the puller's level as the flange the bore's size gives sees it.
+      Circle flange = ring;
+      const double scale = bore.r / expected;
+      flange.r *= scale;
+      flange.r_vertical *= scale;
+      if (bore.score >= kSharpBoreScore && wholeBoreRim(bore) && geometry_->atPullerLevel(flange, bore.y))
+      {
+        takeSpool(ring, bore, result);
+        return true;
+      }
+    }
+  }
+  holes_.clear();
   return false;
 }
 
