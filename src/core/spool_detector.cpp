@@ -1103,12 +1103,14 @@ bool SpoolDetector::ownBore(const SpoolDetection& result, const HoughSearch& hol
   // by kOwnBoreMargin: a faint ring about a true bore (a hub, a chamfer) is not its rim, and a
   // sharp bore whose size the flange gave right supports a circle a pixel or two larger as well
   // as its own (the fit's band): a tie is no evidence.
-  // It is the bore about the spool's axis only where it is about as near the flange's centre as
-  // the hole is: the lit lens the hole may be lies off the axis, not the bore (hard seed 7 #10:
-  // the bore 3 px off the flange's centre, the lens 9), and a circle 9 px off a hole on the axis
-  // is another ring (hard seed 19 #121 at 320x240: a rim 1.8 times the flange was taken outside it).
-  if (!best || std::hypot(best->x - result.flange.x, best->y - result.flange.y) >
-                   std::hypot(hole.x - result.flange.x, hole.y - result.flange.y) + matcher_.tolerancePx())
+  // A hole on the flange's centre is on the spool's axis: a circle farther off it is another ring,
+  // not the bore about that axis (hard seed 19 #121 at 320x240: 9 px off a hole 1 px off the
+  // centre; a rim 1.8 times the flange was taken outside it). A lit lens off the axis, or a hole
+  // off a Hough circle that is itself off the bore (oblique seed 71 #40), says nothing of this.
+  const double tolerance = matcher_.tolerancePx();
+  const double hole_off = std::hypot(hole.x - result.flange.x, hole.y - result.flange.y);
+  if (!best || (hole_off <= tolerance &&
+                std::hypot(best->x - result.flange.x, best->y - result.flange.y) > hole_off + tolerance))
     return false;
   // A tie is evidence where the larger circle holds the hole inside it, well beyond the fit's
   // band: the hole is then the lit lens inside the bore's rim (hard set seed 7 #10: both whole),
