@@ -532,7 +532,7 @@ private:
   std::vector<Circle> own_bores_;    ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;  ///< measureLens()'s scratch
   std::vector<std::size_t> order_;
-  std::vector<std::size_t> oblique_order_;  ///< obliqueSpool()'s candidates in order
+  std::vector<std::size_t> candidate_order_;  ///< obliqueSpool()'s and ringAboutLargeBore()'s candidates in order
 };
 
 }  // namespace spool_vision

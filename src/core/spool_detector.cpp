@@ -215,15 +215,15 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   const double cost = at_prediction ? 0.0
                                     : selectTarget(reference, flange_search, hole_search,
                                                    params_.matcher.spool_evidence, kNoMatch, result);
-  // The second search runs only where it can change the answer: no spool with a hole rim, or
-  // one costing more than its flange radius. Within it, no other spool (whose disc cannot
-  // overlap this one's) is nearer the reference.
-  // The cost a sharp bore lowers (nearestSpool()) does not stand for the rim: that a better
+  // The cost a sharp bore lowers (bearingSupport()) does not stand for the rim: whether a better
   // supported rim of the same spool can cost less is judged on the rim's own support.
   const double rim_cost =
       result.hole_detected && std::isfinite(cost)
           ? ConcentricMatcher::targetCost({result.hole.x, result.hole.y}, result.flange.score, reference)
           : cost;
+  // The second search runs only where it can change the answer: no spool with a hole rim, or
+  // one costing more than its flange radius. Within it, no other spool (whose disc cannot
+  // overlap this one's) is nearer the reference.
   const bool retry = !along_rim && hp.flange_retry == FlangeRetry::kAnyPolarity &&
                      params_.matcher.mode == MatchMode::kMcht && flange_search.polarity != Polarity::kAny &&
                      !(rim_cost <= result.flange.r);
@@ -699,8 +699,8 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   if (replacing)
     std::swap(holes_, target_holes_);
   int tried = 0;
-  ConcentricMatcher::orderByReference(flanges, reference, oblique_order_);
-  for (const std::size_t i : oblique_order_)
+  ConcentricMatcher::orderByReference(flanges, reference, candidate_order_);
+  for (const std::size_t i : candidate_order_)
   {
     const Circle flange = flanges[i];
     if (flange.r_vertical < kObliqueRimMinRadius)
@@ -759,9 +759,9 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
 bool SpoolDetector::ringAboutLargeBore(const cv::Point2d& reference, const HoughSearch& hole_search,
                                        SpoolDetection& result)
 {
-  ConcentricMatcher::orderByReference(flanges_, reference, oblique_order_);
+  ConcentricMatcher::orderByReference(flanges_, reference, candidate_order_);
   int tried = 0;
-  for (const std::size_t i : oblique_order_)
+  for (const std::size_t i : candidate_order_)
   {
     if (tried++ == kObliqueCandidates)
       break;
