@@ -380,8 +380,8 @@ private:
   /// (ConcentricMatcher::targetCost()) searched for a bore in their concentric window larger than
   /// the match allows them (1 + hole_ratio_tolerance times the size they give it, up to
   /// kRibRingBoreMax), sharp (kSharpBoreScore), whole in the frame and kMinKnownSizeRadius and up,
-  /// at the puller's level. Such a candidate is a rib ring (issue 28: "a candidate whose bore
-  /// measures larger than its size allows is a rib or an inner ring, not the flange"): `result`
+  /// at the puller's level. Such a candidate is a rib ring or an inner ring, not the flange: a
+  /// bore larger than a rim allows lies inside a larger rim. `result`
   /// holds it and its bore (undistorted px) for detect()'s outer-rim search, which must find the
   /// flange outside it, and true. Hard seed 7 #10 at 160x120: a face at 0.51 m overfilling the
   /// frame, its bore's lens lit, the ring at 0.65 of the rim with a bore 1.5 times what it allows.
