@@ -68,6 +68,13 @@ public:
   /// from it. `nearest` and `farthest` positive, nearest <= farthest. False when none fits.
   bool search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
               double nearest, double farthest, const RimSearch& search, RimPoseFit& best);
+  /// search() over the level axes within `half_range` (rad) of `axis_yaw` (rad, the axis's turn
+  /// about the camera's y axis from the optical axis: atan2(x, z), camera optical frame),
+  /// kYawStep apart, those seen at most kWidestViewAngle off the line of sight to `bore`: a
+  /// neighbour of a spool whose axis was measured, seen farther off its axis than search() tries.
+  bool searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+                   double nearest, double farthest, const RimSearch& search, double axis_yaw, double half_range,
+                   RimPoseFit& best);
 
   /// How many samples of the last measure()'s rim had their whole normal in the frame.
   std::size_t samplesInFrame() const
@@ -77,6 +84,8 @@ public:
 
   /// 40 deg: the widest view off the spool axis a pose is taken at (SpoolGeometry::measure).
   static constexpr double kMaxViewAngle = 0.6981317007977318;
+  /// 60 deg: the widest view searchAbout() takes a pose at (the flange's ellipse half as wide as high).
+  static constexpr double kWidestViewAngle = 1.0471975511965976;
   /// 10 deg: the moving edges' reach covers the rim's shift between neighbouring axes.
   static constexpr double kYawStep = 0.17453292519943295;
   /// 7% of depth between poses: within the moving edges' reach (6% of the rim's size) either way.
@@ -95,6 +104,11 @@ public:
   static constexpr int kCoarseSamples = 32;
 
 private:
+  /// search()'s scan over the axes centre_yaw + k kYawStep, |k| <= turns (rad, level), those within
+  /// kWidestViewAngle of the line of sight.
+  bool searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+                  double nearest, double farthest, const RimSearch& search, double centre_yaw, int turns,
+                  RimPoseFit& best);
   /// measure(), with the centre also fitted within kBoreOffCentre where `off_centre` holds.
   bool measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                    const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, bool off_centre,

@@ -345,8 +345,9 @@ private:
   /// same way on all four sides).
   double boreContrast(const cv::Point2d& centre, double r) const;
   /// boreContrast() with its sign: positive where the disc is darker than the face on all four
-  /// sides (a dark bore), negative where it is lighter (a lit lens, copper, a label).
-  double signedBoreContrast(const cv::Point2d& centre, double r) const;
+  /// sides (a dark bore), negative where it is lighter (a lit lens, copper, a label). `aspect`:
+  /// the disc an ellipse `r` high and aspect * r wide (its ring the same shape).
+  double signedBoreContrast(const cv::Point2d& centre, double r, double aspect = 1.0) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
   /// How MovingEdges searches a predicted rim: `reach` px either way, either polarity, half of
@@ -386,10 +387,39 @@ private:
   /// flange outside it, and true. Hard seed 7 #10 at 160x120: a face at 0.51 m overfilling the
   /// frame, its bore's lens lit, the ring at 0.65 of the rim with a bore 1.5 times what it allows.
   bool ringAboutLargeBore(const cv::Point2d& reference, const HoughSearch& hole_search, SpoolDetection& result);
+  /// The flange rim of `fit`'s pose as the image shows it (undistorted px): the 3-D circle of
+  /// flange_diameter about fit.position, normal to fit.axis, projected at kRimExtentPoints points;
+  /// centre and semi-axes are those of its extent, r their mean, score and visible fraction
+  /// fit.rim's. MovingEdges' own rim model is a circle beyond 20% of ellipticity (37 deg off the axis).
+  Circle rimSeenAt(const RimPoseFit& fit) const;
+  /// holes_: hole_search's bore rims among hole_edges_ seen as a spool turned to `axis_yaw` (rad,
+  /// atan2(x, z) of its axis, camera optical frame) shows them: each column's edges stretched by
+  /// 1 / cos of the view there (the line of sight's yaw minus `axis_yaw`; at most
+  /// RimPoseSearch::kWidestViewAngle), where a bore's ellipse, as narrow as that cosine, votes as a
+  /// circle. r and r_vertical are the rim's height, r_horizontal its width (undistorted px).
+  void detectTurnedBores(const HoughSearch& hole_search, double axis_yaw);
+  /// Whole frame, after the result's pose is measured: a spool nearer the `reference` than the
+  /// result, seen farther off its axis than the circle search reaches. Spools on a shelf stand
+  /// side by side with about parallel axes, so looking along a row the one nearest the puller can
+  /// be seen 45-60 deg off its axis: its flange an ellipse half as wide as high, its bore a dark
+  /// slit, and the Hough search's circles miss both (oblique seed 7 #1, #63, seed 11 #17). Bores
+  /// nearer the reference than the result's, outside its flange on the reference's side, at the
+  /// puller's level and kMinKnownSizeRadius and up, are found by detectTurnedBores() about the
+  /// result's axis; about the kTurnedHoles nearest that show dark (bore_contrast, over the
+  /// ellipse), the rim is searched with level axes within kNeighbourAxisSpread of the result's
+  /// (RimPoseSearch::searchAbout) and passes spoolAboutHoles()' guards, its bearing weighed
+  /// without its rim's support (the bore, the rim's 3-D fit and their agreement stand against a
+  /// ghost). Replaces `result` (undistorted px, the rim in oblique_rim_) and returns true. Nothing
+  /// without the result's axis.
+  bool nearerTurnedSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                         const HoughSearch& hole_search, SpoolDetection& result);
   /// obliqueSpool()'s search about the first `max_holes` of holes_ that are whole bore rims
   /// showing as discs: the first rim that passes its guards is the spool (`result`) and true.
+  /// With `axis_yaw` (nearerTurnedSpool()): holes_ from detectTurnedBores(), each a dark ellipse,
+  /// its rim searched about that axis (searchRimAbout()) and its bearing weighed without the rim's
+  /// support.
   bool spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference, double bound,
-                       int max_holes, SpoolDetection& result);
+                       int max_holes, SpoolDetection& result, std::optional<double> axis_yaw = std::nullopt);
   /// Whether `hole`'s size (its vertical semi-axis) is within kObliqueBoreAgreement of what the
   /// flange rim `fit.rim` gives its bore, its lower bound times the cosine of the angle between the
   /// fit's axis and its line of sight (a dark bore seen 35-39 deg off its axis was measured at 0.67-0.76
@@ -426,8 +456,11 @@ private:
   /// in the frame (kMinHoleVisibleFraction).
   static bool wholeBoreRim(const Circle& hole);
   /// The rim about `bore` (RimPoseSearch::search into oblique_rim_) at kObliqueBoreNearest to
-  /// kObliqueBoreFarthest of the depth its size gives (within distance_min..distance_max).
-  bool searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const Circle& bore);
+  /// kObliqueBoreFarthest of the depth its size gives (within distance_min..distance_max); with
+  /// `axis_yaw` (rad), RimPoseSearch::searchAbout() within kNeighbourAxisSpread of it, the rim
+  /// then rimSeenAt() its pose.
+  bool searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const Circle& bore,
+                      std::optional<double> axis_yaw = std::nullopt);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
   /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
   void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);
@@ -473,6 +506,13 @@ private:
   /// found nothing more. Run in the first of two searches it took rib rings a flange circle
   /// would have led past in the second (oblique seed 7 #42, #107).
   static constexpr int kBoreLedHoles = 1;
+  /// nearerTurnedSpool()'s bores searched for a rim: on the oblique sets of seeds 7-41 a third
+  /// found 2 more targets in 1,100 frames and cost another pose search wherever two failed.
+  static constexpr int kTurnedHoles = 2;
+  /// rad: how far a neighbour's axis may turn from the result's (20 deg: shelves do not keep
+  /// spools square).
+  static constexpr double kNeighbourAxisSpread = 20.0 * M_PI / 180.0;
+  static constexpr int kRimExtentPoints = 72;
   static constexpr double kObliqueBoreNearest = 0.7;
   static constexpr double kObliqueBoreFarthest = 1.25;
   /// A right rim seen 30-40 deg off, its back flange's silhouette beside it, keeps 0.52-0.69 of its
@@ -529,8 +569,10 @@ private:
   /// searchNearer()'s candidates where they gave no spool: obliqueSpool() tries them too
   std::vector<Circle> nearer_flanges_;
   std::vector<Circle> lenses_;
-  std::vector<Circle> own_bores_;    ///< innerRing()'s circles about the target's bore
-  std::vector<float> lens_samples_;  ///< measureLens()'s scratch
+  std::vector<double> stretched_columns_;   ///< detectTurnedBores(): stretched x of each column's left edge
+  std::vector<EdgePoint> stretched_edges_;  ///< detectTurnedBores(): hole_edges_ stretched
+  std::vector<Circle> own_bores_;           ///< innerRing()'s circles about the target's bore
+  std::vector<float> lens_samples_;         ///< measureLens()'s scratch
   std::vector<std::size_t> order_;
   std::vector<std::size_t> candidate_order_;  ///< obliqueSpool()'s and ringAboutLargeBore()'s candidates in order
 };

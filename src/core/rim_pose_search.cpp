@@ -53,9 +53,26 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
                            RimPoseFit& best)
 {
   const CameraIntrinsics& camera = geometry.camera();
+  return searchYaws(image, format, geometry, bore, nearest, farthest, search,
+                    std::atan((bore.x - camera.cx) / camera.fx),
+                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), best);
+}
+
+bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
+                                double axis_yaw, double half_range, RimPoseFit& best)
+{
+  return searchYaws(image, format, geometry, bore, nearest, farthest, search, axis_yaw,
+                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), best);
+}
+
+bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                               const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
+                               double centre_yaw, int turns, RimPoseFit& best)
+{
+  const CameraIntrinsics& camera = geometry.camera();
   const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
   const double line_of_sight = std::atan2(ray.x, ray.z);
-  const int turns = static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9));
   // Every pose reads the same frame: its gray levels are converted once.
   const bool held = moving_edges_.holdsFrame();
   if (!held)
@@ -79,7 +96,9 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
     const cv::Point3d centre = ray * depth;
     for (int k = -turns; k <= turns; ++k)
     {
-      const double yaw = line_of_sight + k * kYawStep;
+      const double yaw = centre_yaw + k * kYawStep;
+      if (std::abs(yaw - line_of_sight) > kWidestViewAngle + 1e-9)
+        continue;
       Circle rim;
       if (!moving_edges_.measure(
               image, format,

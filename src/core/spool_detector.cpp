@@ -271,6 +271,13 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   geometry.measure(result, rim_);
   if (whole_frame && !along_rim && result.hole_detected)
     measureObliqueRim(image, format, geometry, hole_search, result);
+  if (whole_frame && !along_rim && result.hole_detected &&
+      nearerTurnedSpool(image, format, reference, hole_search, result))
+  {
+    gatherRim(result, hp.flange_polarity);
+    takeObliqueRim();
+    geometry.measure(result, rim_);
+  }
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size (seen far
   // off its axis, with the lit wall on the side the axis gives).
   Circle bore;
@@ -494,15 +501,24 @@ bool SpoolDetector::wholeBoreRim(const Circle& hole)
 }
 
 bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                   const Circle& bore)
+                                   const Circle& bore, std::optional<double> axis_yaw)
 {
   // The depth its size gives, and the flange's size there.
   const GeometryParams& gp = params_.geometry;
   const double flange_px = bore.r * gp.flange_diameter / gp.hole_diameter;
   const double depth = geometry.depthFromDiameter(2.0 * flange_px);
-  return rim_pose_search_.search(
-      image, format, geometry, {bore.x, bore.y}, std::max(gp.distance_min, kObliqueBoreNearest * depth),
-      std::min(gp.distance_max, kObliqueBoreFarthest * depth), obliqueRimSearch(flange_px), oblique_rim_);
+  const double nearest = std::max(gp.distance_min, kObliqueBoreNearest * depth);
+  const double farthest = std::min(gp.distance_max, kObliqueBoreFarthest * depth);
+  if (!axis_yaw)
+    return rim_pose_search_.search(image, format, geometry, {bore.x, bore.y}, nearest, farthest,
+                                   obliqueRimSearch(flange_px), oblique_rim_);
+  // Its rim's extent in the image from the pose: seen beyond 37 deg off its axis the moving
+  // edges' ellipse fit falls back to a circle (fitRimModel()).
+  if (!rim_pose_search_.searchAbout(image, format, geometry, {bore.x, bore.y}, nearest, farthest,
+                                    obliqueRimSearch(flange_px), *axis_yaw, kNeighbourAxisSpread, oblique_rim_))
+    return false;
+  oblique_rim_.rim = rimSeenAt(oblique_rim_);
+  return true;
 }
 
 RimSearch SpoolDetector::obliqueRimSearch(double flange_px) const
@@ -756,6 +772,128 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   return false;
 }
 
+Circle SpoolDetector::rimSeenAt(const RimPoseFit& fit) const
+{
+  // The flange's circle at the fitted pose, its extent in the image (undistorted px).
+  const CameraIntrinsics& camera = geometry_->camera();
+  const cv::Vec3d centre(fit.position.x, fit.position.y, fit.position.z);
+  cv::Vec3d across = fit.axis.cross(cv::Vec3d(0.0, 1.0, 0.0));
+  across = cv::norm(across) > 1e-9 ? cv::normalize(across) : cv::Vec3d(1.0, 0.0, 0.0);
+  const cv::Vec3d up = cv::normalize(fit.axis.cross(across));
+  const double radius = 0.5 * params_.geometry.flange_diameter;
+  cv::Point2d low(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+  cv::Point2d high = -low;
+  for (int k = 0; k < kRimExtentPoints; ++k)
+  {
+    const double t = 2.0 * M_PI * k / kRimExtentPoints;
+    const cv::Vec3d p = centre + radius * (std::cos(t) * across + std::sin(t) * up);
+    const cv::Point2d px(camera.fx * p[0] / p[2] + camera.cx, camera.fy * p[1] / p[2] + camera.cy);
+    low = {std::min(low.x, px.x), std::min(low.y, px.y)};
+    high = {std::max(high.x, px.x), std::max(high.y, px.y)};
+  }
+  Circle rim = fit.rim;
+  rim.x = 0.5 * (low.x + high.x);
+  rim.y = 0.5 * (low.y + high.y);
+  rim.r_horizontal = 0.5 * (high.x - low.x);
+  rim.r_vertical = 0.5 * (high.y - low.y);
+  rim.r = 0.5 * (rim.r_horizontal + rim.r_vertical);
+  return rim;
+}
+
+void SpoolDetector::detectTurnedBores(const HoughSearch& hole_search, double axis_yaw)
+{
+  // Seen far off its axis a bore is an ellipse as narrow as the cosine of the view. The columns
+  // are stretched by its inverse, the view at each column taken about `axis_yaw`, so that the bore
+  // votes as a circle there.
+  const CameraIntrinsics& camera = geometry_->camera();
+  const int cols = preprocessed_.cols;
+  auto widening = [&](double x)
+  {
+    const double view = std::atan((x - camera.cx) / camera.fx) - axis_yaw;
+    return 1.0 / std::max(std::cos(view), std::cos(RimPoseSearch::kWidestViewAngle));
+  };
+  stretched_columns_.resize(static_cast<std::size_t>(cols) + 1);
+  stretched_columns_[0] = 0.0;
+  for (int x = 0; x < cols; ++x)
+    stretched_columns_[x + 1] = stretched_columns_[x] + widening(x + 0.5);
+  auto stretched = [&](double x)
+  {
+    const double inside = std::clamp(x, 0.0, cols - 1e-6);
+    const int i = static_cast<int>(inside);
+    return stretched_columns_[i] + (inside - i) * (stretched_columns_[i + 1] - stretched_columns_[i]) + (x - inside);
+  };
+  stretched_edges_.clear();
+  for (const EdgePoint& e : hole_edges_)
+  {
+    const double dx = e.dx / widening(e.x);
+    const double norm = std::hypot(dx, static_cast<double>(e.dy));
+    if (norm > 0.0)
+      stretched_edges_.push_back(
+          {static_cast<float>(stretched(e.x)), e.y, static_cast<float>(dx / norm), static_cast<float>(e.dy / norm)});
+  }
+  HoughSearch search = hole_search;
+  search.center_window.x = stretched(hole_search.center_window.x);
+  search.center_window.width = stretched(hole_search.center_window.br().x) - search.center_window.x;
+  hole_hough_.detect(stretched_edges_,
+                     cv::Size(static_cast<int>(std::ceil(stretched_columns_[cols])), preprocessed_.rows), search,
+                     holes_);
+  for (Circle& hole : holes_)
+  {
+    const auto column = std::upper_bound(stretched_columns_.begin(), stretched_columns_.end(), hole.x);
+    const int i = std::clamp(static_cast<int>(column - stretched_columns_.begin()) - 1, 0, cols - 1);
+    hole.x = i + (hole.x - stretched_columns_[i]) / (stretched_columns_[i + 1] - stretched_columns_[i]);
+    hole.r_vertical = hole.r_vertical > 0.0 ? hole.r_vertical : hole.r;
+    hole.r_horizontal = (hole.r_horizontal > 0.0 ? hole.r_horizontal : hole.r) / widening(hole.x);
+    hole.r = hole.r_vertical;
+  }
+}
+
+bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                                      const HoughSearch& hole_search, SpoolDetection& result)
+{
+  if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright ||
+      !std::isfinite(result.axis[2]))
+    return false;
+  // The bores nearer the reference than the result's, at the puller's level and at sizes whose rim
+  // can be measured.
+  const double bound = std::hypot(result.hole.x - reference.x, result.hole.y - reference.y);
+  const auto [top, bottom] = geometry_->pullerLevelRows();
+  // Such a bore lies outside the result's flange, on the reference's side of it.
+  const Circle& taken = result.flange;
+  const double half_width = taken.r_horizontal > 0.0 ? taken.r_horizontal : taken.r;
+  double left = reference.x - bound;
+  double right = reference.x + bound;
+  if (taken.x > reference.x)
+    right = std::min(right, taken.x - half_width);
+  else
+    left = std::max(left, taken.x + half_width);
+  HoughSearch holes = hole_search;
+  holes.r_min = std::max(hole_search.r_min, kMinKnownSizeRadius);
+  holes.center_window =
+      cv::Rect2d(left, top, right - left, bottom - top) & cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
+  if (holes.r_min >= holes.r_max || !(right > left) || holes.center_window.empty())
+    return false;
+  std::swap(holes_, target_holes_);
+  extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+  const double axis_yaw = std::atan2(result.axis[0], result.axis[2]);
+  detectTurnedBores(holes, axis_yaw);
+  holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
+                              [&](const Circle& h)
+                              {
+                                return std::hypot(h.x - reference.x, h.y - reference.y) >= bound ||
+                                       std::hypot(h.x - taken.x, h.y - taken.y) < taken.r_vertical;
+                              }),
+               holes_.end());
+  std::sort(
+      holes_.begin(), holes_.end(),
+      [&](const Circle& a, const Circle& b)
+      { return std::hypot(a.x - reference.x, a.y - reference.y) < std::hypot(b.x - reference.x, b.y - reference.y); });
+  if (spoolAboutHoles(image, format, reference, bound, kTurnedHoles, result, axis_yaw))
+    return true;
+  std::swap(holes_, target_holes_);
+  return false;
+}
+
 bool SpoolDetector::ringAboutLargeBore(const cv::Point2d& reference, const HoughSearch& hole_search,
                                        SpoolDetection& result)
 {
@@ -797,7 +935,7 @@ bool SpoolDetector::ringAboutLargeBore(const cv::Point2d& reference, const Hough
 }
 
 bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
-                                    double bound, int max_holes, SpoolDetection& result)
+                                    double bound, int max_holes, SpoolDetection& result, std::optional<double> axis_yaw)
 {
   const SpoolGeometry& geometry = *geometry_;
   int searched = 0;
@@ -806,15 +944,18 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
     // A bore whose whole rim is in the frame and which shows as a disc (a ring of the bore's
     // size on a neighbour's face cut by the border, or on a plate, is no spool).
     const Circle hole = holes_[h];
-    if (!wholeBoreRim(hole) || boreContrast({hole.x, hole.y}, hole.r) < params_.matcher.bore_contrast)
+    // A bore seen far off its axis is dark, an ellipse as narrow as the view (detectTurnedBores()).
+    const double contrast = axis_yaw ? signedBoreContrast({hole.x, hole.y}, hole.r, hole.r_horizontal / hole.r_vertical)
+                                     : boreContrast({hole.x, hole.y}, hole.r);
+    if (!wholeBoreRim(hole) || contrast < params_.matcher.bore_contrast)
       continue;
     ++searched;
-    if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < kBoreAgreedSupport ||
+    if (!searchRimAbout(image, format, geometry, hole, axis_yaw) || oblique_rim_.support < kBoreAgreedSupport ||
         (oblique_rim_.support < kObliqueSpoolSupport && !boreAgreesAtOwnSize(hole, oblique_rim_)) ||
         !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
         (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
         !boreAgreesWith(hole, oblique_rim_) ||
-        ConcentricMatcher::targetCost({hole.x, hole.y}, oblique_rim_.support, reference) >= bound)
+        ConcentricMatcher::targetCost({hole.x, hole.y}, axis_yaw ? 1.0 : oblique_rim_.support, reference) >= bound)
       continue;
     takeSpool(oblique_rim_.rim, hole, result);
     measureBoreAtKnownSize(result);
@@ -1174,13 +1315,13 @@ namespace
 // quarters of the ring 1.3 r .. 2 r, when all four differ the same way (0 otherwise). A bore
 // shows as a disc darker (unlit) or brighter (lit) than the face on every side, even where it is
 // too small or faint for its rim to be fitted; a mark beside it changes one quarter only.
-double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
+double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, double aspect)
 {
   const double inner2 = 0.8 * 0.8 * r * r;
   const double ring_min2 = 1.3 * 1.3 * r * r;
   const double ring_max2 = 4.0 * r * r;
-  const int x0 = std::max(0, cvFloor(centre.x - 2.0 * r));
-  const int x1 = std::min(gray.cols - 1, cvCeil(centre.x + 2.0 * r));
+  const int x0 = std::max(0, cvFloor(centre.x - 2.0 * r * aspect));
+  const int x1 = std::min(gray.cols - 1, cvCeil(centre.x + 2.0 * r * aspect));
   const int y0 = std::max(0, cvFloor(centre.y - 2.0 * r));
   const int y1 = std::min(gray.rows - 1, cvCeil(centre.y + 2.0 * r));
   double in_sum = 0.0;
@@ -1194,7 +1335,7 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
     for (int x = x0; x <= x1; ++x)
     {
       const double dx = x - centre.x;
-      const double d2 = dx * dx + dy * dy;
+      const double d2 = dx * dx / (aspect * aspect) + dy * dy;
       if (d2 <= inner2)
       {
         in_sum += row[x];
@@ -1275,10 +1416,10 @@ double SpoolDetector::boreContrast(const cv::Point2d& centre, double r) const
   return std::abs(signedBoreContrast(centre, r));
 }
 
-double SpoolDetector::signedBoreContrast(const cv::Point2d& centre, double r) const
+double SpoolDetector::signedBoreContrast(const cv::Point2d& centre, double r, double aspect) const
 {
   const cv::Point3d disc = inFrame(centre, r);
-  return discContrast(preprocessed_, {disc.x, disc.y}, disc.z);
+  return discContrast(preprocessed_, {disc.x, disc.y}, disc.z, aspect);
 }
 
 void SpoolDetector::detectHoles(const HoughSearch& hole_search)

@@ -127,3 +127,32 @@ TEST(RimPoseSearch, FindsNoRimAboutABoreOnABlankWall)
   EXPECT_FALSE(rims.search(image, PixelFormat::kBgr8, geometry, {320.0, 240.0}, 0.6, 1.0, search(), fit));
   EXPECT_FALSE(std::isfinite(fit.position.z));
 }
+
+// A neighbour seen 55 deg off its axis: beyond what search() tries (kMaxViewAngle), found by
+// searchAbout() about the axis of a spool beside it (turned 8 deg from its own).
+TEST(RimPoseSearch, FindsARimSeen55DegreesOffItsAxisAboutAGivenAxis)
+{
+  const SpoolGeometry geometry(GeometryParams{}, kVga);
+  RimPoseSearch rims;
+  rims.setCamera(kVga);
+  for (const double yaw : {-55.0 * kDeg, 55.0 * kDeg})
+  {
+    SCOPED_TRACE(yaw / kDeg);
+    const cv::Vec3d front(0.02, 0.04, 0.9);
+    const cv::Vec3d axis = turned(front, yaw);
+    const cv::Mat image = obliqueSpool(front, axis);
+    const double axis_yaw = std::atan2(axis[0], axis[2]);
+    RimPoseFit fit;
+    ASSERT_TRUE(rims.searchAbout(image, PixelFormat::kBgr8, geometry, bore(front), 0.75, 1.1, search(),
+                                 axis_yaw + (yaw > 0.0 ? 8.0 : -8.0) * kDeg, 20.0 * kDeg, fit));
+    EXPECT_NEAR(fit.position.z, front[2], 0.02 * front[2]);
+    EXPECT_NEAR(std::atan2(fit.axis[0], fit.axis[2]), axis_yaw, 3.0 * kDeg);
+    EXPECT_GT(fit.support, 0.6);
+    // search() tries axes only up to 40 deg off the line of sight: none fits this rim as well.
+    RimPoseFit near_axis;
+    if (rims.search(image, PixelFormat::kBgr8, geometry, bore(front), 0.75, 1.1, search(), near_axis))
+    {
+      EXPECT_GT(std::abs(std::atan2(near_axis.axis[0], near_axis.axis[2]) - axis_yaw), 5.0 * kDeg);
+    }
+  }
+}

@@ -514,3 +514,28 @@ TEST(FailureKinds, ARibRingAboutABoreTooLargeForItLeadsToTheFlange)
 {
   expectTargetFound(FrameSet::kHard, 7, 10, 160);
 }
+
+// Looking along a row of spools turned 30-40 deg from the line of sight, the one nearest the
+// puller can be seen 45-60 deg off its axis: its flange an ellipse half as wide as high, its bore a
+// dark slit. The Hough search's circles missed both, and a neighbour 7-20 deg farther off the
+// puller was reported (oblique seed 7 #1, #63, #116; seed 11 #17; seed 19 #23 at 640x480). Its
+// bore, searched about the reported spool's axis, leads to it: found, its depth within 3%.
+TEST(FailureKinds, ASpoolSeenFarOffItsAxisNearerThePullerIsNotPassedOverForItsNeighbour)
+{
+  for (const auto& [seed, index] :
+       {std::pair{7, 1}, std::pair{7, 63}, std::pair{7, 116}, std::pair{11, 17}, std::pair{19, 23}})
+  {
+    SCOPED_TRACE("oblique seed " + std::to_string(seed) + " #" + std::to_string(index));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(FrameSet::kOblique, seed, index, 200, 640, detector);
+    const auto target = spool_vision::targetSpool(frame.truth);
+    ASSERT_TRUE(target);
+    ASSERT_GT(target->view_angle, 45.0 * kDeg);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected);
+    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
+        << "detected (" << d.flange.x << ", " << d.flange.y << ") r " << d.flange.r << ", target (" << target->flange.x
+        << ", " << target->flange.y << ") r " << target->flange.r;
+    EXPECT_NEAR(d.distance, target->distance, 0.03 * target->distance);
+  }
+}
