@@ -72,6 +72,7 @@ public:
   /// about the camera's y axis from the optical axis: atan2(x, z), camera optical frame),
   /// kYawStep apart, those seen at most kWidestViewAngle off the line of sight to `bore`: a
   /// neighbour of a spool whose axis was measured, seen farther off its axis than search() tries.
+  /// The kRefinedAbout best covered poses are measured in full.
   bool searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                    double nearest, double farthest, const RimSearch& search, double axis_yaw, double half_range,
                    RimPoseFit& best);
@@ -91,6 +92,10 @@ public:
   /// 7% of depth between poses: within the moving edges' reach (6% of the rim's size) either way.
   static constexpr double kDepthStep = 1.07;
   static constexpr std::size_t kRefined = 4;
+  /// searchAbout()'s: a narrow ellipse's coarse poses cover its rim alike (0.88-1.0 over 20 deg and
+  /// 15% of depth: oblique seed 19 #124), and the best four can all miss it; with eight, 9 more
+  /// targets seen 50-57 deg off their axes were found on 1,100 oblique frames (seeds 7-41).
+  static constexpr std::size_t kRefinedAbout = 8;
   /// How far (a share of the rim's radius, px) the search's rim centre may lie off the bore's where
   /// the fit about the bore's ray fails (SpoolGeometry::fitRimPose's centre_reach). Not in measure(),
   /// which checks a rim about a measured bore (a rib ring fitted off its bore would pass).
@@ -105,10 +110,11 @@ public:
 
 private:
   /// search()'s scan over the axes centre_yaw + k kYawStep, |k| <= turns (rad, level), those within
-  /// kWidestViewAngle of the line of sight.
+  /// kWidestViewAngle of the line of sight, the `refined` (at most max(kRefined, kRefinedAbout))
+  /// best covered measured in full.
   bool searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                   double nearest, double farthest, const RimSearch& search, double centre_yaw, int turns,
-                  RimPoseFit& best);
+                  std::size_t refined, RimPoseFit& best);
   /// measure(), with the centre also fitted within kBoreOffCentre where `off_centre` holds.
   bool measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                    const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, bool off_centre,

@@ -55,7 +55,7 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
   const CameraIntrinsics& camera = geometry.camera();
   return searchYaws(image, format, geometry, bore, nearest, farthest, search,
                     std::atan((bore.x - camera.cx) / camera.fx),
-                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), best);
+                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, best);
 }
 
 bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
@@ -63,12 +63,12 @@ bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const 
                                 double axis_yaw, double half_range, RimPoseFit& best)
 {
   return searchYaws(image, format, geometry, bore, nearest, farthest, search, axis_yaw,
-                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), best);
+                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), kRefinedAbout, best);
 }
 
 bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
-                               double centre_yaw, int turns, RimPoseFit& best)
+                               double centre_yaw, int turns, std::size_t refined, RimPoseFit& best)
 {
   const CameraIntrinsics& camera = geometry.camera();
   const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
@@ -77,14 +77,16 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
   const bool held = moving_edges_.holdsFrame();
   if (!held)
     moving_edges_.beginFrame();
-  // The kRefined poses whose moving edges cover most of the rim (score, depth, yaw).
+  // The `refined` poses whose moving edges cover most of the rim (score, depth, yaw).
   struct Pose
   {
     double score = 0.0;
     double depth = 0.0;
     double yaw = 0.0;
   };
-  std::array<Pose, kRefined> top{};
+  std::array<Pose, std::max(kRefined, kRefinedAbout)> kept{};
+  const auto top = kept.begin();
+  const auto top_end = top + static_cast<std::ptrdiff_t>(std::min(refined, kept.size()));
   RimSearch coarse = search;
   coarse.max_samples = kCoarseSamples;
   // From `nearest` to `farthest` inclusive, at most kDepthStep apart.
@@ -106,14 +108,15 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
               coarse, rim))
         continue;
       Pose pose{rim.score, depth, yaw};
-      for (Pose& kept : top)
-        if (pose.score > kept.score)
-          std::swap(pose, kept);
+      for (auto it = top; it != top_end; ++it)
+        if (pose.score > it->score)
+          std::swap(pose, *it);
     }
   }
   bool found = false;
-  for (const Pose& pose : top)
+  for (auto it = top; it != top_end; ++it)
   {
+    const Pose& pose = *it;
     if (!(pose.score > 0.0))
       continue;
     if (measurePose(image, format, geometry, bore, ray * pose.depth,
