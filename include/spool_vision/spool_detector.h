@@ -410,7 +410,7 @@ private:
   /// (RimPoseSearch::searchAbout) and passes spoolAboutHoles()' guards, its bearing weighed
   /// without its rim's support (the bore, the rim's 3-D fit and their agreement stand against a
   /// ghost). Replaces `result` (undistorted px, the rim in oblique_rim_) and returns true. Nothing
-  /// without the result's axis.
+  /// without the result's axis, nor where bores are too small (kTurnedBoreScale).
   bool nearerTurnedSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                          const HoughSearch& hole_search, SpoolDetection& result);
   /// obliqueSpool()'s search about the first `max_holes` of holes_ that are whole bore rims
@@ -509,6 +509,11 @@ private:
   /// nearerTurnedSpool()'s bores searched for a rim: on the oblique sets of seeds 7-41 a third
   /// found 2 more targets in 1,100 frames and cost another pose search wherever two failed.
   static constexpr int kTurnedHoles = 2;
+  /// nearerTurnedSpool() runs only where the nearest bores (hole_search's largest) measure this
+  /// many times kMinKnownSizeRadius: seen 45-60 deg off, a bore is half as wide as high. At
+  /// 160x120 (8 px at most) it found no spool on the oblique sets of seeds 7 and 73 and cost 15%
+  /// of the hard set's instructions.
+  static constexpr double kTurnedBoreScale = 2.0;
   /// rad: how far a neighbour's axis may turn from the result's (20 deg: shelves do not keep
   /// spools square).
   static constexpr double kNeighbourAxisSpread = 20.0 * M_PI / 180.0;

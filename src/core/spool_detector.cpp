@@ -852,7 +852,7 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
                                       const HoughSearch& hole_search, SpoolDetection& result)
 {
   if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright ||
-      !std::isfinite(result.axis[2]))
+      !std::isfinite(result.axis[2]) || hole_search.r_max < kTurnedBoreScale * kMinKnownSizeRadius)
     return false;
   // The bores nearer the reference than the result's, at the puller's level and at sizes whose rim
   // can be measured.
