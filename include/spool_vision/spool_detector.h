@@ -409,8 +409,11 @@ private:
   /// ellipse), the rim is searched with level axes within kNeighbourAxisSpread of the result's
   /// (RimPoseSearch::searchAbout) and passes spoolAboutHoles()' guards, its bearing weighed
   /// without its rim's support (the bore, the rim's 3-D fit and their agreement stand against a
-  /// ghost). Replaces `result` (undistorted px, the rim in oblique_rim_) and returns true. Nothing
-  /// without the result's axis, nor where bores are too small (kTurnedBoreScale).
+  /// ghost). Where the result's pose gave no axis (SpoolGeometry::plausiblePose), its flange's
+  /// ellipse gives the view off its axis (acos of its width over its height, kObliqueAxisAngle and
+  /// up) but not its side: both axes are tried (oblique seed 19 #57, seed 37 #11, #57). Replaces
+  /// `result` (undistorted px, the rim in oblique_rim_) and returns true. Nothing where bores are
+  /// too small (kTurnedBoreScale).
   bool nearerTurnedSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                          const HoughSearch& hole_search, SpoolDetection& result);
   /// obliqueSpool()'s search about the first `max_holes` of holes_ that are whole bore rims

@@ -852,14 +852,28 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
                                       const HoughSearch& hole_search, SpoolDetection& result)
 {
   if (params_.matcher.mode != MatchMode::kMcht || params_.hough.hole_polarity == Polarity::kBright ||
-      !std::isfinite(result.axis[2]) || hole_search.r_max < kTurnedBoreScale * kMinKnownSizeRadius)
+      hole_search.r_max < kTurnedBoreScale * kMinKnownSizeRadius)
     return false;
+  // The neighbours' axis is the result's; where its pose gave none, either one its flange's
+  // ellipse allows (as wide as the cosine of the view).
+  std::array<double, 2> axis_yaws{};
+  std::size_t axes = 0;
+  const Circle& taken = result.flange;
+  if (std::isfinite(result.axis[2]))
+  {
+    axis_yaws[axes++] = std::atan2(result.axis[0], result.axis[2]);
+  }
+  else if (taken.r_horizontal > 0.0 && taken.r_horizontal < taken.r_vertical)
+  {
+    const double view = std::acos(taken.r_horizontal / taken.r_vertical);
+    const double sight = std::atan((result.hole.x - geometry_->camera().cx) / geometry_->camera().fx);
+    if (view >= kObliqueAxisAngle)
+      axis_yaws = {sight - view, sight + view}, axes = 2;
+  }
   // The bores nearer the reference than the result's, at the puller's level and at sizes whose rim
-  // can be measured.
+  // can be measured. Such a bore lies outside the result's flange, on the reference's side of it.
   const double bound = std::hypot(result.hole.x - reference.x, result.hole.y - reference.y);
   const auto [top, bottom] = geometry_->pullerLevelRows();
-  // Such a bore lies outside the result's flange, on the reference's side of it.
-  const Circle& taken = result.flange;
   const double half_width = taken.r_horizontal > 0.0 ? taken.r_horizontal : taken.r;
   double left = reference.x - bound;
   double right = reference.x + bound;
@@ -871,25 +885,31 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
   holes.r_min = std::max(hole_search.r_min, kMinKnownSizeRadius);
   holes.center_window =
       cv::Rect2d(left, top, right - left, bottom - top) & cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
-  if (holes.r_min >= holes.r_max || !(right > left) || holes.center_window.empty())
+  if (axes == 0 || holes.r_min >= holes.r_max || !(right > left) || holes.center_window.empty())
     return false;
   std::swap(holes_, target_holes_);
-  extractHoleEdges(holes.center_window, holes.r_max + 2.0);
-  const double axis_yaw = std::atan2(result.axis[0], result.axis[2]);
-  detectTurnedBores(holes, axis_yaw);
-  holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
-                              [&](const Circle& h)
-                              {
-                                return std::hypot(h.x - reference.x, h.y - reference.y) >= bound ||
-                                       std::hypot(h.x - taken.x, h.y - taken.y) < taken.r_vertical;
-                              }),
-               holes_.end());
-  std::sort(
-      holes_.begin(), holes_.end(),
-      [&](const Circle& a, const Circle& b)
-      { return std::hypot(a.x - reference.x, a.y - reference.y) < std::hypot(b.x - reference.x, b.y - reference.y); });
-  if (spoolAboutHoles(image, format, reference, bound, kTurnedHoles, result, axis_yaw))
-    return true;
+  const cv::Point2d flange_centre(taken.x, taken.y);
+  const double flange_radius = taken.r_vertical;
+  for (std::size_t i = 0; i < axes; ++i)
+  {
+    // Each time: the rim searches about a bore measure it on hole_edges_ too.
+    extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+    detectTurnedBores(holes, axis_yaws[i]);
+    holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
+                                [&](const Circle& h)
+                                {
+                                  return std::hypot(h.x - reference.x, h.y - reference.y) >= bound ||
+                                         std::hypot(h.x - flange_centre.x, h.y - flange_centre.y) < flange_radius;
+                                }),
+                 holes_.end());
+    std::sort(holes_.begin(), holes_.end(),
+              [&](const Circle& a, const Circle& b) {
+                return std::hypot(a.x - reference.x, a.y - reference.y) <
+                       std::hypot(b.x - reference.x, b.y - reference.y);
+              });
+    if (spoolAboutHoles(image, format, reference, bound, kTurnedHoles, result, axis_yaws[i]))
+      return true;
+  }
   std::swap(holes_, target_holes_);
   return false;
 }
