@@ -79,24 +79,46 @@ cv::Vec3d turned(const cv::Vec3d& front, double yaw)
   const double sight = std::atan2(front[0], front[2]);
   return {std::sin(sight + yaw), 0.0, std::cos(sight + yaw)};
 }
+
+// obliqueSpool() with its face centre at `front` (m) and its axis turned `yaw` from the line of sight.
+struct TurnedSpool
+{
+  cv::Vec3d front;
+  cv::Vec3d axis;
+  cv::Mat image;
+};
+
+TurnedSpool turnedSpool(const cv::Vec3d& front, double yaw)
+{
+  const cv::Vec3d axis = turned(front, yaw);
+  return {front, axis, obliqueSpool(front, axis)};
+}
+
+// kVga's geometry and a RimPoseSearch on its camera.
+struct Searcher
+{
+  SpoolGeometry geometry{GeometryParams{}, kVga};
+  RimPoseSearch rims;
+  Searcher()
+  {
+    rims.setCamera(kVga);
+  }
+};
 }  // namespace
 
 TEST(RimPoseSearch, FindsAFlangeSeen35DegreesOffItsAxisBesideItsBackFlange)
 {
-  const SpoolGeometry geometry(GeometryParams{}, kVga);
-  RimPoseSearch rims;
-  rims.setCamera(kVga);
+  Searcher searcher;
   for (const double yaw : {-35.0 * kDeg, 35.0 * kDeg})
   {
     SCOPED_TRACE(yaw / kDeg);
-    const cv::Vec3d front(0.1, 0.04, 0.8);
-    const cv::Vec3d axis = turned(front, yaw);
-    const cv::Mat image = obliqueSpool(front, axis);
+    const TurnedSpool spool = turnedSpool({0.1, 0.04, 0.8}, yaw);
     RimPoseFit fit;
     // As a circle too large (the joint silhouette) would put it: 15% too near.
-    ASSERT_TRUE(rims.search(image, PixelFormat::kBgr8, geometry, bore(front), 0.93 * 0.68, 1.21 * 0.68, search(), fit));
-    EXPECT_NEAR(fit.position.z, front[2], 0.01 * front[2]);
-    EXPECT_NEAR(std::atan2(fit.axis[0], fit.axis[2]), std::atan2(axis[0], axis[2]), 2.0 * kDeg);
+    ASSERT_TRUE(searcher.rims.search(spool.image, PixelFormat::kBgr8, searcher.geometry, bore(spool.front), 0.93 * 0.68,
+                                     1.21 * 0.68, search(), fit));
+    EXPECT_NEAR(fit.position.z, spool.front[2], 0.01 * spool.front[2]);
+    EXPECT_NEAR(std::atan2(fit.axis[0], fit.axis[2]), std::atan2(spool.axis[0], spool.axis[2]), 2.0 * kDeg);
     EXPECT_GT(fit.support, 0.8);
   }
 }
@@ -132,25 +154,23 @@ TEST(RimPoseSearch, FindsNoRimAboutABoreOnABlankWall)
 // searchAbout() about the axis of a spool beside it (turned 8 deg from its own).
 TEST(RimPoseSearch, FindsARimSeen55DegreesOffItsAxisAboutAGivenAxis)
 {
-  const SpoolGeometry geometry(GeometryParams{}, kVga);
-  RimPoseSearch rims;
-  rims.setCamera(kVga);
+  Searcher searcher;
   for (const double yaw : {-55.0 * kDeg, 55.0 * kDeg})
   {
     SCOPED_TRACE(yaw / kDeg);
-    const cv::Vec3d front(0.02, 0.04, 0.9);
-    const cv::Vec3d axis = turned(front, yaw);
-    const cv::Mat image = obliqueSpool(front, axis);
-    const double axis_yaw = std::atan2(axis[0], axis[2]);
+    const TurnedSpool spool = turnedSpool({0.02, 0.04, 0.9}, yaw);
+    const double axis_yaw = std::atan2(spool.axis[0], spool.axis[2]);
+    const cv::Point2d centre = bore(spool.front);
     RimPoseFit fit;
-    ASSERT_TRUE(rims.searchAbout(image, PixelFormat::kBgr8, geometry, bore(front), 0.75, 1.1, search(),
-                                 axis_yaw + (yaw > 0.0 ? 8.0 : -8.0) * kDeg, 20.0 * kDeg, fit));
-    EXPECT_NEAR(fit.position.z, front[2], 0.02 * front[2]);
+    ASSERT_TRUE(searcher.rims.searchAbout(spool.image, PixelFormat::kBgr8, searcher.geometry, centre, 0.75, 1.1,
+                                          search(), axis_yaw + (yaw > 0.0 ? 8.0 : -8.0) * kDeg, 20.0 * kDeg, fit));
+    EXPECT_NEAR(fit.position.z, spool.front[2], 0.02 * spool.front[2]);
     EXPECT_NEAR(std::atan2(fit.axis[0], fit.axis[2]), axis_yaw, 3.0 * kDeg);
     EXPECT_GT(fit.support, 0.6);
     // search() tries axes only up to 40 deg off the line of sight: none fits this rim as well.
     RimPoseFit near_axis;
-    if (rims.search(image, PixelFormat::kBgr8, geometry, bore(front), 0.75, 1.1, search(), near_axis))
+    if (searcher.rims.search(spool.image, PixelFormat::kBgr8, searcher.geometry, centre, 0.75, 1.1, search(),
+                             near_axis))
     {
       EXPECT_GT(std::abs(std::atan2(near_axis.axis[0], near_axis.axis[2]) - axis_yaw), 5.0 * kDeg);
     }
