@@ -94,7 +94,7 @@ public:
   static constexpr std::size_t kRefined = 4;
   /// searchAbout()'s: a narrow ellipse's coarse poses cover its rim alike (0.88-1.0 over 20 deg and
   /// 15% of depth: oblique seed 19 #124), and the best four can all miss it; with eight, 9 more
-  /// targets seen 50-57 deg off their axes were found on 1,100 oblique frames (seeds 7-41).
+  /// targets seen 45-57 deg off their axes were found on 1,100 oblique frames (seeds 7-41).
   static constexpr std::size_t kRefinedAbout = 8;
   /// How far (a share of the rim's radius, px) the search's rim centre may lie off the bore's where
   /// the fit about the bore's ray fails (SpoolGeometry::fitRimPose's centre_reach). Not in measure(),
