@@ -702,6 +702,14 @@ void takeSpool(const Circle& flange, const std::optional<Circle>& hole, SpoolDet
   if (hole)
     result.hole = *hole;
 }
+
+// `circles` nearest `point` first (px).
+void orderByDistanceTo(const cv::Point2d& point, std::vector<Circle>& circles)
+{
+  std::sort(circles.begin(), circles.end(),
+            [&](const Circle& a, const Circle& b)
+            { return std::hypot(a.x - point.x, a.y - point.y) < std::hypot(b.x - point.x, b.y - point.y); });
+}
 }  // namespace
 
 bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
@@ -756,11 +764,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
     {
       extractHoleEdges(holes.center_window, holes.r_max + 2.0);
       detectHoles(holes);
-      std::sort(holes_.begin(), holes_.end(),
-                [&](const Circle& a, const Circle& b) {
-                  return std::hypot(a.x - reference.x, a.y - reference.y) <
-                         std::hypot(b.x - reference.x, b.y - reference.y);
-                });
+      orderByDistanceTo(reference, holes_);
       if (spoolAboutHoles(image, format, reference, bound, kBoreLedHoles, result))
         return true;
     }
@@ -902,11 +906,7 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
                                          std::hypot(h.x - flange_centre.x, h.y - flange_centre.y) < flange_radius;
                                 }),
                  holes_.end());
-    std::sort(holes_.begin(), holes_.end(),
-              [&](const Circle& a, const Circle& b) {
-                return std::hypot(a.x - reference.x, a.y - reference.y) <
-                       std::hypot(b.x - reference.x, b.y - reference.y);
-              });
+    orderByDistanceTo(reference, holes_);
     if (spoolAboutHoles(image, format, reference, bound, kTurnedHoles, result, axis_yaws[i]))
       return true;
   }
@@ -1340,6 +1340,7 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, do
   const double inner2 = 0.8 * 0.8 * r * r;
   const double ring_min2 = 1.3 * 1.3 * r * r;
   const double ring_max2 = 4.0 * r * r;
+  const double across2 = 1.0 / (aspect * aspect);  // a column's share of the ellipse's radius, squared
   const int x0 = std::max(0, cvFloor(centre.x - 2.0 * r * aspect));
   const int x1 = std::min(gray.cols - 1, cvCeil(centre.x + 2.0 * r * aspect));
   const int y0 = std::max(0, cvFloor(centre.y - 2.0 * r));
@@ -1355,7 +1356,7 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, do
     for (int x = x0; x <= x1; ++x)
     {
       const double dx = x - centre.x;
-      const double d2 = dx * dx / (aspect * aspect) + dy * dy;
+      const double d2 = dx * dx * across2 + dy * dy;
       if (d2 <= inner2)
       {
         in_sum += row[x];
