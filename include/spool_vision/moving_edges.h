@@ -28,6 +28,12 @@ struct RimSearch
   int max_samples = 96;
   /// max_samples counts the samples inside the frame: a rim cut by it is sampled more densely
   bool samples_in_view = false;
+  /// > 0: the fit starts about the offset most edges agree on, not their median, and keeps edges
+  /// within at most this share of the radius (at least 2 px) of the rim, however widely they
+  /// scatter. For a prediction as sharp as a track's: a second edge beside the rim (a dark gap
+  /// between spools, blur) is then never averaged in. 0: 3 MAD sigmas, however wide (a coarse
+  /// pose's rim, whose shape is only roughly the one seen).
+  double max_band_share = 0.0;
 };
 
 /// Finds a predicted rim in a frame by moving edges and fits the detector's rim model to it.
@@ -105,7 +111,7 @@ private:
   /// where not yet done.
   void convertTiles(const cv::Mat& image, PixelFormat format, const cv::Rect& region);
   /// on_rim_ and `rim`: the robust fit of found_.
-  bool fit(cv::Size size, std::size_t in_frame, Circle& rim);
+  bool fit(cv::Size size, std::size_t in_frame, double max_band_share, Circle& rim);
 
   CameraIntrinsics camera_;
   std::vector<cv::Point2d> points_;   ///< predicted rim, undistorted px

@@ -141,6 +141,10 @@ public:
   /// within a few px of where the rim must be, while the whole frame's threshold keeps clutter out
   /// of the Hough votes and drops a faint rim (a grey face on a grey wall) with it.
   static constexpr double kAlongRimThreshold = 0.5;
+  /// A tracked rim keeps the edges within 2% of its radius of the fit (RimSearch::max_band_share;
+  /// at least 2 px): 1.2 px is 160x120's closest flange's 2%, 5 px 1280x720's. Not for the rim
+  /// outside an inner ring, predicted from the ring's size (its prediction is a guess).
+  static constexpr double kTrackedRimBandShare = 0.02;
   /// px: a smaller bore (160x120) is not measured again at its known size: half a rim of a few
   /// pixels has too few edges to place it better than the free fit, and there the lit band is
   /// within a pixel of the rim anyway.
@@ -192,9 +196,10 @@ private:
   void prepareAround(const cv::Mat& image, PixelFormat format, const cv::Rect2d& centres, double reach,
                      bool flange_edges);
   /// `window`'s rim measured by moving edges (detect()); false when it is not found as
-  /// `flange_search` (the window's) demands.
+  /// `flange_search` (the window's) demands. `tracked`: the window is a track's (the outermost
+  /// detect()), whose prediction is sharp: the fit keeps kTrackedRimBandShare.
   bool measureAlongRim(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
-                       const HoughSearch& flange_search, Circle& flange);
+                       const HoughSearch& flange_search, bool tracked, Circle& flange);
   /// rim_: the edges of the result's flange rim (for SpoolGeometry::fitRimPose).
   void gatherRim(const SpoolDetection& result, Polarity polarity);
   /// Whether the result's bore, measured at its own size, says its flange is an inner ring: then

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
@@ -169,17 +170,57 @@ private:
     Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
   };
 
+  /// A frame since the last fused detection: its interval (s), the camera's motion, and the
+  /// detection the gate refused in it, if any (camera frame, m; covariance m^2).
+  struct ReplayStep
+  {
+    double dt = 0.0;
+    std::optional<CameraMotion> motion;
+    bool measured = false;
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  };
+  /// The position filter just before the last fused detection was fused, its squared Mahalanobis
+  /// distance there, and the frames since (fusedWithoutTheLastFused()).
+  struct Checkpoint
+  {
+    bool valid = false;
+    Vector6 x = Vector6::Zero();
+    Matrix6 p = Matrix6::Zero();
+    double distance2 = 0.0;
+    std::vector<ReplayStep> steps;
+  };
+  /// Refused detections that must agree with the track without its last fused one to replace it.
+  static constexpr int kReplayedDetections = 2;
+
   /// Fewer than track_confirm_frames fused frames: no history to defend nor a velocity to coast
   /// on; searched in the whole frame, never following a rib ring.
   bool young() const;
   void start(const SpoolDetection& detection, const MeasurementNoise& noise, const CameraIntrinsics& camera);
   void predict(double dt, const std::optional<CameraMotion>& motion);
-  /// The state seen from the camera after `motion`: position and velocity rotated and the
-  /// position moved, the axis's slopes turned (first order for their covariance), plus the
-  /// odometry's error (track_odometry_noise of the distance driven and of the angle turned).
-  void applyCameraMotion(const CameraMotion& motion);
-  /// One position measurement (camera frame, m) with its covariance (m^2), gated; true when fused.
+  /// The position filter's step to a frame `dt` s later (constant velocity, white-noise
+  /// acceleration track_acceleration), after the camera's `motion`.
+  void predictPosition(Vector6& x, Matrix6& p, double dt, const std::optional<CameraMotion>& motion) const;
+  /// Position and velocity seen from the camera after `motion`: rotated and the position moved,
+  /// plus the odometry's error (track_odometry_noise of the distance driven and of the angle turned).
+  void moveWithCamera(Vector6& x, Matrix6& p, const CameraMotion& motion) const;
+  /// The axis's slopes turned with the camera (first order for their covariance), plus the
+  /// odometry's error of the angle turned.
+  void turnAxisWithCamera(const CameraMotion& motion);
+  /// One position measurement (camera frame, m) with covariance (m^2) into the state (x, p), gated
+  /// at track_gate; `distance2`: its squared Mahalanobis distance from the prediction. True when fused.
+  bool fusePosition(Vector6& x, Matrix6& p, const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance,
+                    double& distance2) const;
+  /// fusePosition() into the track; the state before it is kept as checkpoint_.
   bool fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance);
+  /// A detection the gate refused (position, covariance), in a frame `dt` s after the one before,
+  /// with the camera's `motion`. With at least kReplayedDetections of them since the last fused
+  /// detection, the frames since are taken again from checkpoint_ without that detection: when
+  /// each refused one passes the gate there, and lies nearer than the skipped one lay (squared
+  /// Mahalanobis distance), the skipped one was the outlier and the replayed state is the track's.
+  /// True when it replaced the track's state.
+  bool fusedWithoutTheLastFused(double dt, const std::optional<CameraMotion>& motion, const Eigen::Vector3d& position,
+                                const Eigen::Matrix3d& covariance);
   /// The detection is this spool's own rib ring taken for the flange: its bore inside the track's
   /// bore opening and its flange kRibRingMin to kRibRingMax of the predicted one; never against a
   /// track with fewer than track_confirm_frames fused frames that has coasted since its last.
@@ -241,6 +282,7 @@ private:
   double support_ = 0.0;  ///< confidence of the last fused detection
   Refuter consecutive_;   ///< in consecutive frames
   Refuter whole_frame_;   ///< in consecutive whole-frame searches
+  Checkpoint checkpoint_;
 };
 
 /// One frame through the detector and the tracker, as the node and spool_detect --track run it.

@@ -182,7 +182,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     flanges_.clear();
     edges_.clear();
     Circle flange;
-    along_rim = measureAlongRim(image, format, *window, flange_search, flange);
+    along_rim = measureAlongRim(image, format, *window, flange_search, !outer.nested, flange);
     if (along_rim)
     {
       flanges_.push_back(flange);
@@ -405,9 +405,11 @@ void SpoolDetector::prepareAround(const cv::Mat& image, PixelFormat format, cons
 }
 
 bool SpoolDetector::measureAlongRim(const cv::Mat& image, PixelFormat format, const FlangeWindow& window,
-                                    const HoughSearch& flange_search, Circle& flange)
+                                    const HoughSearch& flange_search, bool tracked, Circle& flange)
 {
-  if (!moving_edges_.measure(image, format, window.rim, rimSearch(window.rim_reach), flange))
+  RimSearch search = rimSearch(window.rim_reach);
+  search.max_band_share = tracked ? kTrackedRimBandShare : 0.0;
+  if (!moving_edges_.measure(image, format, window.rim, search, flange))
     return false;
   // The window's tests: enough of the rim, and a fit that stayed where the track allows.
   return flange.score >= flange_search.min_score && flange.r_vertical >= flange_search.r_min &&

@@ -261,6 +261,7 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
   if (usable(detection) && isRibRing(detection))
   {
     followed_rib = followRibRing(detection, noise, camera);
+    checkpoint_.valid = false;  // a ring fused at a learnt scale is not replayed
   }
   else if (usable(detection))
   {
@@ -268,8 +269,13 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
     // circle too big, taken on frame after frame), however close the gate, widened by the
     // coasting, lets it come: refused, it counts towards ending the track (refuteTrack), the way
     // for the flange a track drifted from to come back, through a new track.
+    // Unless the refused ones agree with the track without its last fused detection, better than
+    // that one did: it was the outlier (a blurred rim measured 3% large), which turned the velocity
+    // the prediction runs on, and the spool's own rim has been refused since.
+    const Eigen::Vector3d position = toEigen(detection.position);
     const Eigen::Matrix3d covariance = positionCovariance(detection, noise, camera);
-    fused = !repeatsRefused(detection, covariance) && fuseMeasurement(toEigen(detection.position), covariance);
+    fused = (!repeatsRefused(detection, covariance) && fuseMeasurement(position, covariance)) ||
+            fusedWithoutTheLastFused(dt, motion, position, covariance);
     if (fused)
     {
       rib_ratio_.reset();  // the next rib episode learns its ring's size afresh
@@ -288,6 +294,10 @@ const TrackedSpool& SpoolTracker::update(const SpoolDetection& detection, double
       confirmed_ = 0;
       return tracked_;
     }
+  }
+  else if (checkpoint_.valid)
+  {
+    checkpoint_.steps.push_back({dt, motion, false, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Zero()});
   }
   // A frame that followed the rib ring neither counts as coasted nor clears the count.
   coasted_ = fused ? 0 : coasted_ + (followed_rib ? 0 : 1);
@@ -318,6 +328,7 @@ void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise
   fuseAxis(detection, noise);
   support_ = detection.confidence;
   coasted_ = confirmed_ = consecutive_.count = whole_frame_.count = 0;
+  checkpoint_.valid = false;
   fused_frames_ = 1;
   tracked_ = TrackedSpool();
   tracked_.age = 0;
@@ -326,7 +337,19 @@ void SpoolTracker::start(const SpoolDetection& detection, const MeasurementNoise
 void SpoolTracker::predict(double dt, const std::optional<CameraMotion>& motion)
 {
   if (motion)
-    applyCameraMotion(*motion);
+    turnAxisWithCamera(*motion);
+  predictPosition(x_, p_, dt, motion);
+  if (axis_known_)
+  {
+    axis_p_ += params_.tracker.axis_drift * params_.tracker.axis_drift * dt * Eigen::Matrix2d::Identity();
+    applyLevelPitch();
+  }
+}
+
+void SpoolTracker::predictPosition(Vector6& x, Matrix6& p, double dt, const std::optional<CameraMotion>& motion) const
+{
+  if (motion)
+    moveWithCamera(x, p, *motion);
   Matrix6 f = Matrix6::Identity();
   f.topRightCorner<3, 3>() = dt * Eigen::Matrix3d::Identity();
   // White-noise acceleration, per axis [[dt^4/4, dt^3/2], [dt^3/2, dt^2]] q.
@@ -336,13 +359,8 @@ void SpoolTracker::predict(double dt, const std::optional<CameraMotion>& motion)
   noise.topRightCorner<3, 3>() = q * dt * dt * dt / 2.0 * Eigen::Matrix3d::Identity();
   noise.bottomLeftCorner<3, 3>() = noise.topRightCorner<3, 3>();
   noise.bottomRightCorner<3, 3>() = q * dt * dt * Eigen::Matrix3d::Identity();
-  x_ = f * x_;
-  p_ = f * p_ * f.transpose() + noise;
-  if (axis_known_)
-  {
-    axis_p_ += params_.tracker.axis_drift * params_.tracker.axis_drift * dt * Eigen::Matrix2d::Identity();
-    applyLevelPitch();
-  }
+  x = f * x;
+  p = f * p * f.transpose() + noise;
 }
 
 namespace
@@ -363,27 +381,32 @@ double turnAngle(const Eigen::Matrix3d& rotation)
 }
 }  // namespace
 
-void SpoolTracker::applyCameraMotion(const CameraMotion& motion)
+void SpoolTracker::moveWithCamera(Vector6& x, Matrix6& p, const CameraMotion& motion) const
 {
   const Eigen::Matrix3d r = toEigen(motion.rotation);
   const Eigen::Vector3d t(motion.translation[0], motion.translation[1], motion.translation[2]);
-  const Eigen::Vector3d before = x_.head<3>();
+  const Eigen::Vector3d before = x.head<3>();
   Matrix6 rr = Matrix6::Zero();
   rr.topLeftCorner<3, 3>() = r;
   rr.bottomRightCorner<3, 3>() = r;
-  x_ = rr * x_;
-  x_.head<3>() += t;
-  p_ = rr * p_ * rr.transpose();
+  x = rr * x;
+  x.head<3>() += t;
+  p = rr * p * rr.transpose();
   // The odometry's own error: a fraction of the distance driven, and of the angle turned, which
   // swings the point by that angle times its distance from the camera.
   const double k = params_.tracker.odometry_noise;
   const double angle = turnAngle(r);
   const double position_var = std::pow(k * t.norm(), 2.0) + std::pow(k * angle * before.norm(), 2.0);
-  p_.topLeftCorner<3, 3>() += position_var * Eigen::Matrix3d::Identity();
+  p.topLeftCorner<3, 3>() += position_var * Eigen::Matrix3d::Identity();
+}
+
+void SpoolTracker::turnAxisWithCamera(const CameraMotion& motion)
+{
   if (!axis_known_)
     return;
   // The axis direction (sx, sy, 1) turns with the camera; its slopes are the new direction's
   // x/z and y/z, whose Jacobian in the old slopes carries their covariance across.
+  const Eigen::Matrix3d r = toEigen(motion.rotation);
   const Eigen::Vector3d d = r * Eigen::Vector3d(axis_.x(), axis_.y(), 1.0);
   if (!(d.z() > 1e-6))
     return;  // turned a quarter turn between two frames: no forklift does that
@@ -391,7 +414,8 @@ void SpoolTracker::applyCameraMotion(const CameraMotion& motion)
   ds << 1.0 / d.z(), 0.0, -d.x() / (d.z() * d.z()), 0.0, 1.0 / d.z(), -d.y() / (d.z() * d.z());
   const Eigen::Matrix2d j = ds * r.leftCols<2>();
   axis_ = Eigen::Vector2d(d.x() / d.z(), d.y() / d.z());
-  axis_p_ = j * axis_p_ * j.transpose() + std::pow(k * angle, 2.0) * Eigen::Matrix2d::Identity();
+  const double k = params_.tracker.odometry_noise;
+  axis_p_ = j * axis_p_ * j.transpose() + std::pow(k * turnAngle(r), 2.0) * Eigen::Matrix2d::Identity();
 }
 
 void SpoolTracker::applyLevelPitch()
@@ -405,21 +429,75 @@ void SpoolTracker::applyLevelPitch()
   axis_p_(0, 1) = axis_p_(1, 0) = 0.0;
 }
 
-bool SpoolTracker::fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance)
+bool SpoolTracker::fusePosition(Vector6& x, Matrix6& p, const Eigen::Vector3d& position,
+                                const Eigen::Matrix3d& covariance, double& distance2) const
 {
-  const Eigen::Vector3d innovation = position - x_.head<3>();
-  const Eigen::Matrix3d s = p_.topLeftCorner<3, 3>() + covariance;
+  const Eigen::Vector3d innovation = position - x.head<3>();
+  const Eigen::Matrix3d s = p.topLeftCorner<3, 3>() + covariance;
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(s);
-  const double distance2 = innovation.dot(ldlt.solve(innovation));
+  distance2 = innovation.dot(ldlt.solve(innovation));
   if (!(distance2 <= params_.tracker.gate * params_.tracker.gate))
     return false;
   // K = P H^T S^-1 with H = [I 0]; Joseph form keeps P symmetric and positive.
-  const Eigen::Matrix<double, 6, 3> k = ldlt.solve(p_.topRows<3>()).transpose();
-  x_ += k * innovation;
+  const Eigen::Matrix<double, 6, 3> k = ldlt.solve(p.topRows<3>()).transpose();
+  x += k * innovation;
   Eigen::Matrix<double, 3, 6> h = Eigen::Matrix<double, 3, 6>::Zero();
   h.leftCols<3>().setIdentity();
   const Matrix6 i_kh = Matrix6::Identity() - k * h;
-  p_ = i_kh * p_ * i_kh.transpose() + k * covariance * k.transpose();
+  p = i_kh * p * i_kh.transpose() + k * covariance * k.transpose();
+  return true;
+}
+
+bool SpoolTracker::fuseMeasurement(const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance)
+{
+  const Vector6 x = x_;
+  const Matrix6 p = p_;
+  double distance2 = 0.0;
+  if (!fusePosition(x_, p_, position, covariance, distance2))
+    return false;
+  checkpoint_.valid = true;
+  checkpoint_.x = x;
+  checkpoint_.p = p;
+  checkpoint_.distance2 = distance2;
+  checkpoint_.steps.clear();
+  return true;
+}
+
+bool SpoolTracker::fusedWithoutTheLastFused(double dt, const std::optional<CameraMotion>& motion,
+                                            const Eigen::Vector3d& position, const Eigen::Matrix3d& covariance)
+{
+  if (!checkpoint_.valid)
+    return false;
+  checkpoint_.steps.push_back({dt, motion, true, position, covariance});
+  int measured = 0;
+  for (const ReplayStep& step : checkpoint_.steps)
+    measured += step.measured ? 1 : 0;
+  if (measured < kReplayedDetections)
+    return false;
+  // From the track before the last fused detection, every frame since: each detection must pass
+  // the gate and agree with that history better than the skipped one did.
+  Vector6 x = checkpoint_.x;
+  Matrix6 p = checkpoint_.p;
+  Vector6 x_last = x;
+  Matrix6 p_last = p;
+  double distance2_last = 0.0;
+  for (const ReplayStep& step : checkpoint_.steps)
+  {
+    predictPosition(x, p, step.dt, step.motion);
+    if (!step.measured)
+      continue;
+    x_last = x;
+    p_last = p;
+    if (!fusePosition(x, p, step.position, step.covariance, distance2_last) || distance2_last >= checkpoint_.distance2)
+      return false;
+  }
+  x_ = x;
+  p_ = p;
+  // The last of them is now the last fused detection.
+  checkpoint_.x = x_last;
+  checkpoint_.p = p_last;
+  checkpoint_.distance2 = distance2_last;
+  checkpoint_.steps.clear();
   return true;
 }
 
