@@ -883,6 +883,12 @@ TrackedFrame TrackingDetector::process(const cv::Mat& image, PixelFormat format,
   }
   since_full_search_ = frame.full_search ? 0 : since_full_search_ + 1;
   frame.track = tracker_.update(frame.raw, stamp, detector_.camera(), frame.full_search, motion);
+  // The whole frame refused: the next frame's whole frame decides whether that was another spool
+  // (two in a row end the track: SpoolTracker::refuteTrack), not the one track_full_search_interval
+  // frames on. A track taken on a neighbour at first sight (the target's face missed far off)
+  // held it for two intervals: approach_hard seed 84 at 640x480 and 1280x720, 20 frames.
+  if (frame.full_search && frame.track.rejected_now)
+    since_full_search_ = interval - 1;
   frame.published = trackedDetection(frame.raw, frame.track, detector_.params().geometry);
   return frame;
 }

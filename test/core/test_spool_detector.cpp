@@ -404,6 +404,39 @@ TEST(SpoolDetector, ATrackedRimIsMeasuredAlongItAsTheWholeFrameMeasuresIt)
   EXPECT_NEAR(fallback.distance, whole.distance, 0.002 * whole.distance);
 }
 
+TEST(TrackingDetector, AWholeFrameRefusalIsCheckedOnTheNextFrame)
+{
+  // A track holds a neighbour 30 cm left (the only spool in view at first). Then the target comes
+  // into view in front of the puller: the windows keep finding the neighbour, the next whole-frame
+  // search finds the target and is refused. The frame after it is searched whole too, and the
+  // second refusal in a row ends the track there, not track_full_search_interval frames later.
+  const DrawnSpool target = spoolAt(kVga, 1.0, 0.02, 0.06);
+  const DrawnSpool neighbour = spoolAt(kVga, 1.0, -0.30, 0.06);
+  const cv::Mat alone = drawScene({640, 480}, {neighbour});
+  const cv::Mat both = drawScene({640, 480}, {target, neighbour});
+  spool_vision::TrackingDetector tracking;
+  tracking.detector().setCamera(kVga);
+  int frame = 0;
+  for (; frame < 12; ++frame)
+    tracking.process(alone, PixelFormat::kBgr8, frame / 30.0);
+  ASSERT_EQ(tracking.tracker().current().state, spool_vision::TrackState::kTracking);
+  int refused_at = -1;
+  int lost_at = -1;
+  for (; frame < 40 && lost_at < 0; ++frame)
+  {
+    const spool_vision::TrackedFrame f = tracking.process(both, PixelFormat::kBgr8, frame / 30.0);
+    if (f.track.rejected_now && refused_at < 0)
+    {
+      EXPECT_TRUE(f.full_search);
+      refused_at = frame;
+    }
+    if (f.track.state == spool_vision::TrackState::kLost)
+      lost_at = frame;
+  }
+  ASSERT_GE(refused_at, 0);
+  EXPECT_EQ(lost_at, refused_at + 1);
+}
+
 TEST(TrackingDetector, ATargetHintPicksTheTasksSpoolAmongNeighbours)
 {
   // Two spools 1 m ahead: one 10 cm left of the puller (the image's nearest: the detector's own
