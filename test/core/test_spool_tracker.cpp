@@ -630,6 +630,35 @@ void feedSlowApproach(SpoolTracker& tracker, int frames, std::mt19937& rng)
   for (int i = 0; i < frames; ++i)
     tracker.update(detectionAt(slowApproach(i), kAlong, &rng), slowStamp(i), kCamera);
 }
+
+// Its frames `first` to `end` (excluded), detected with `rng`'s noise: each one fused, the
+// published depth within `tolerance` (relative) of the truth.
+void expectFollowed(SpoolTracker& tracker, int first, int end, std::mt19937& rng, double tolerance)
+{
+  for (int i = first; i < end; ++i)
+  {
+    const TrackedSpool& t = tracker.update(detectionAt(slowApproach(i), kAlong, &rng), slowStamp(i), kCamera);
+    EXPECT_EQ(t.state, TrackState::kTracking) << i;
+    EXPECT_NEAR(t.position.z, slowApproach(i).z, tolerance * slowApproach(i).z) << i;
+  }
+}
+
+// Its frames `first` to `end` (excluded) detected as a circle too big, `depth_scale` of the true
+// depth, less well supported than the flange: none fused, and the published depth within
+// `tolerance` (relative) of the truth until the track is lost.
+void expectWrongCirclesRefused(SpoolTracker& tracker, int first, int end, double depth_scale, std::mt19937& rng,
+                               double tolerance)
+{
+  for (int i = first; i < end; ++i)
+  {
+    const TrackedSpool& t =
+        tracker.update(detectionAt(slowApproach(i) * depth_scale, kAlong, &rng, 0.8), slowStamp(i), kCamera);
+    EXPECT_FALSE(t.fused_now) << i;
+    if (t.state == TrackState::kLost)
+      break;
+    EXPECT_NEAR(t.position.z, slowApproach(i).z, tolerance * slowApproach(i).z) << i;
+  }
+}
 }  // namespace
 
 TEST(SpoolTracker, TheSameWrongCircleOnFrameAfterFrameIsNeverFused)
@@ -641,15 +670,7 @@ TEST(SpoolTracker, TheSameWrongCircleOnFrameAfterFrameIsNeverFused)
   std::mt19937 rng(43);
   SpoolTracker tracker;
   feedSlowApproach(tracker, 30, rng);
-  for (int i = 30; i < 40; ++i)
-  {
-    const TrackedSpool& t =
-        tracker.update(detectionAt(slowApproach(i) * 0.95, kAlong, &rng, 0.8), slowStamp(i), kCamera);
-    EXPECT_NE(t.state, TrackState::kTracking) << i;
-    if (t.state == TrackState::kLost)
-      break;
-    EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.02 * slowApproach(i).z) << i;
-  }
+  expectWrongCirclesRefused(tracker, 30, 40, 0.95, rng, 0.02);
 }
 
 TEST(SpoolTracker, ACircleRefusedOnTheFrameBeforeIsNotFusedWhenCoastingWidensTheGate)
@@ -684,12 +705,7 @@ TEST(SpoolTracker, TheFlangeAfterTwoRefusedCirclesIsFusedAgain)
   for (int i = 25; i < 27; ++i)
     EXPECT_EQ(tracker.update(detectionAt(slowApproach(i) * 0.94, kAlong, &rng, 0.8), slowStamp(i), kCamera).state,
               TrackState::kCoasting);
-  for (int i = 27; i < 32; ++i)
-  {
-    const TrackedSpool& t = tracker.update(detectionAt(slowApproach(i), kAlong, &rng), slowStamp(i), kCamera);
-    EXPECT_EQ(t.state, TrackState::kTracking) << i;
-    EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.01 * slowApproach(i).z) << i;
-  }
+  expectFollowed(tracker, 27, 32, rng, 0.01);
 }
 
 TEST(SpoolTracker, ALevelSpoolsPitchStandsInForTheRimsBiasedOne)
@@ -828,12 +844,7 @@ TEST(SpoolTracker, AnOutlierFusedOnceIsUndoneByTheDetectionsThatFollow)
   const TrackedSpool& refused = tracker.update(detectionAt(slowApproach(20), kAlong, &rng), slowStamp(20), kCamera);
   ASSERT_TRUE(refused.rejected_now);  // the prediction the outlier turned refuses the spool's rim
   EXPECT_GT(std::abs(refused.position.z / slowApproach(20).z - 1.0), 0.02);
-  for (int i = 21; i < 30; ++i)
-  {
-    const TrackedSpool& t = tracker.update(detectionAt(slowApproach(i), kAlong, &rng), slowStamp(i), kCamera);
-    EXPECT_EQ(t.state, TrackState::kTracking) << i;
-    EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.005 * slowApproach(i).z) << i;
-  }
+  expectFollowed(tracker, 21, 30, rng, 0.005);
 }
 
 TEST(SpoolTracker, AWrongCircleAfterAGoodFrameDoesNotUndoIt)
@@ -844,13 +855,5 @@ TEST(SpoolTracker, AWrongCircleAfterAGoodFrameDoesNotUndoIt)
   std::mt19937 rng(61);
   SpoolTracker tracker;
   feedSlowApproach(tracker, 25, rng);
-  for (int i = 25; i < 29; ++i)
-  {
-    const TrackedSpool& t =
-        tracker.update(detectionAt(slowApproach(i) * 0.975, kAlong, &rng, 0.8), slowStamp(i), kCamera);
-    EXPECT_FALSE(t.fused_now) << i;
-    if (t.state == TrackState::kLost)
-      break;
-    EXPECT_NEAR(t.position.z, slowApproach(i).z, 0.01 * slowApproach(i).z) << i;
-  }
+  expectWrongCirclesRefused(tracker, 25, 29, 0.975, rng, 0.01);
 }

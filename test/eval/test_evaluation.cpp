@@ -1,4 +1,5 @@
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -989,17 +990,25 @@ TEST(Evaluation, SmallRenderedSetsMeetLooseBars)
   EXPECT_LE(m640.yaw_error_deg.median, 0.1);
 }
 
+namespace
+{
+// approach_hard `seed` (40 frames) rendered at `size` and followed by the tracker with default.yaml at 10 Hz.
+sv::ApproachTracking trackedHardApproach(cv::Size size, std::uint64_t seed)
+{
+  const std::vector<sv::RenderedFrame> frames =
+      sv::renderSet(sv::SpoolRenderer(sv::setCamera(sv::FrameSet::kApproachHard, size)), sv::FrameSet::kApproachHard,
+                    seed, sv::EvaluationConfig::kApproachFrames);
+  return sv::trackApproach(config("default.yaml"), frames, sv::EvaluationConfig::kApproachRate, seed);
+}
+}  // namespace
+
 TEST(Evaluation, AHardApproachFollowedByTheTrackerStaysOnItsSpool)
 {
   // approach_hard seed 1001 at 320x240 (40 frames, 10 Hz), default.yaml: published from the
   // third frame (a young track is held), every published frame on the spool, within 3% of its
   // depth, and its 3-sigma ellipsoid holding the truth. A tracker that published another spool
   // or jumped would fail here.
-  const std::vector<sv::RenderedFrame> frames =
-      sv::renderSet(sv::SpoolRenderer(sv::setCamera(sv::FrameSet::kApproachHard, {320, 240})),
-                    sv::FrameSet::kApproachHard, 1001, sv::EvaluationConfig::kApproachFrames);
-  const sv::ApproachTracking a =
-      sv::trackApproach(config("default.yaml"), frames, sv::EvaluationConfig::kApproachRate, 1001);
+  const sv::ApproachTracking a = trackedHardApproach({320, 240}, 1001);
   EXPECT_EQ(a.frames, 40);
   EXPECT_GE(a.published, 36);
   EXPECT_LE(a.published, 38);  // never the young track's first two frames
@@ -1019,11 +1028,7 @@ TEST(Evaluation, AHardApproachAt160x120KeepsItsDepthThroughABlurredFrameAndTheCu
   // the spool's own rim was refused from then on and taken for a rib ring, and the published depth
   // ran 10-20% short to the end. From 57 cm, with the flange cut by the frame, the same band grew
   // the rim frame after frame (3-8% short). Every published frame within 3% now.
-  const std::vector<sv::RenderedFrame> frames =
-      sv::renderSet(sv::SpoolRenderer(sv::setCamera(sv::FrameSet::kApproachHard, {160, 120})),
-                    sv::FrameSet::kApproachHard, 73002, sv::EvaluationConfig::kApproachFrames);
-  const sv::ApproachTracking a =
-      sv::trackApproach(config("default.yaml"), frames, sv::EvaluationConfig::kApproachRate, 73002);
+  const sv::ApproachTracking a = trackedHardApproach({160, 120}, 73002);
   EXPECT_GE(a.published, 34);
   EXPECT_EQ(a.other_spool, 0);
   EXPECT_EQ(a.over_3_percent, 0);
