@@ -353,6 +353,11 @@ private:
   /// sides (a dark bore), negative where it is lighter (a lit lens, copper, a label). `aspect`:
   /// the disc an ellipse `r` high and aspect * r wide (its ring the same shape).
   double signedBoreContrast(const cv::Point2d& centre, double r, double aspect = 1.0) const;
+  /// A bore seen through, a lit lens in part of it: the smaller of how much darker than the face
+  /// on all four sides its darker half is and how much brighter its brightest fifth is (fraction
+  /// of full scale, 0 where either fails). Where the lens covers a third of it on a face shaded
+  /// across it, boreContrast() is 0 (approach_hard seed 84 at 1.0-1.1 m).
+  double litBoreContrast(const cv::Point2d& centre, double r) const;
   /// The see-through lens inside the target's hole rim, if one shows (SpoolDetection::lens).
   void findLens(SpoolDetection& result);
   /// How MovingEdges searches a predicted rim: `reach` px either way, either polarity, half of

@@ -969,7 +969,10 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
     // A bore seen far off its axis is dark, an ellipse as narrow as the view (detectTurnedBores()).
     const double contrast = axis_yaw ? signedBoreContrast({hole.x, hole.y}, hole.r, hole.r_horizontal / hole.r_vertical)
                                      : boreContrast({hole.x, hole.y}, hole.r);
-    if (!wholeBoreRim(hole) || contrast < params_.matcher.bore_contrast)
+    // A sharp rim about a bore seen through (a lit lens in part of it) counts as a disc too.
+    const double least = params_.matcher.bore_contrast;
+    if (!wholeBoreRim(hole) ||
+        (contrast < least && !(hole.score >= kSharpBoreScore && litBoreContrast({hole.x, hole.y}, hole.r) >= least)))
       continue;
     ++searched;
     if (!searchRimAbout(image, format, geometry, hole, axis_yaw) || oblique_rim_.support < kBoreAgreedSupport ||
@@ -1332,12 +1335,11 @@ void SpoolDetector::measureBoreParallax(const SpoolGeometry& geometry, SpoolDete
 
 namespace
 {
-// How much a disc of radius r about `centre` in `gray` differs from the face around it, as a
-// fraction of full scale: the smallest difference between its mean and the means of the four
-// quarters of the ring 1.3 r .. 2 r, when all four differ the same way (0 otherwise). A bore
-// shows as a disc darker (unlit) or brighter (lit) than the face on every side, even where it is
-// too small or faint for its rim to be fitted; a mark beside it changes one quarter only.
-double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, double aspect)
+// The grey levels of a disc of radius 0.8 r about `centre` in `gray` (an ellipse `aspect` as wide
+// as high) and the means of the four quarters of the ring 1.3 r .. 2 r about it. `inner`: how many
+// of the disc's pixels take each level. False where a quarter lies off the image (not judged).
+bool discAndRing(const cv::Mat& gray, const cv::Point2d& centre, double r, double aspect, std::array<int, 256>& inner,
+                 std::array<double, 4>& ring_mean)
 {
   const double inner2 = 0.8 * 0.8 * r * r;
   const double ring_min2 = 1.3 * 1.3 * r * r;
@@ -1347,8 +1349,7 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, do
   const int x1 = std::min(gray.cols - 1, cvCeil(centre.x + 2.0 * r * aspect));
   const int y0 = std::max(0, cvFloor(centre.y - 2.0 * r));
   const int y1 = std::min(gray.rows - 1, cvCeil(centre.y + 2.0 * r));
-  double in_sum = 0.0;
-  int in_n = 0;
+  inner.fill(0);
   std::array<double, 4> ring_sum{};
   std::array<int, 4> ring_n{};
   for (int y = y0; y <= y1; ++y)
@@ -1361,8 +1362,7 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, do
       const double d2 = dx * dx * across2 + dy * dy;
       if (d2 <= inner2)
       {
-        in_sum += row[x];
-        ++in_n;
+        ++inner[row[x]];
       }
       else if (d2 >= ring_min2 && d2 <= ring_max2)
       {
@@ -1372,21 +1372,82 @@ double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, do
       }
     }
   }
-  if (in_n == 0)
-    return 0.0;
-  const double in_mean = in_sum / in_n;
-  double lowest = 1.0;
-  int darker = 0;
   for (std::size_t q = 0; q < 4; ++q)
   {
     if (ring_n[q] == 0)
-      return 0.0;  // a quarter off the image: not judged
-    const double d = ring_sum[q] / ring_n[q] - in_mean;
+      return false;
+    ring_mean[q] = ring_sum[q] / ring_n[q];
+  }
+  return true;
+}
+
+// Mean level of the disc's pixels from the `from` to the `to` fraction of them, darkest first
+// (`inner` as discAndRing() counts them); NaN for an empty disc.
+double meanBetween(const std::array<int, 256>& inner, double from, double to)
+{
+  long total = 0;
+  for (const int n : inner)
+    total += n;
+  const double lo = from * static_cast<double>(total);
+  const double hi = to * static_cast<double>(total);
+  double sum = 0.0;
+  double taken = 0.0;
+  double seen = 0.0;
+  for (int level = 0; level < 256; ++level)
+  {
+    const double n = inner[static_cast<std::size_t>(level)];
+    const double share = std::max(0.0, std::min(seen + n, hi) - std::max(seen, lo));
+    sum += share * level;
+    taken += share;
+    seen += n;
+  }
+  return taken > 0.0 ? sum / taken : std::numeric_limits<double>::quiet_NaN();
+}
+
+// How much a disc of radius r about `centre` in `gray` differs from the face around it, as a
+// fraction of full scale: the smallest difference between its mean and the means of the four
+// quarters of the ring 1.3 r .. 2 r, when all four differ the same way (0 otherwise). A bore
+// shows as a disc darker (unlit) or brighter (lit) than the face on every side, even where it is
+// too small or faint for its rim to be fitted; a mark beside it changes one quarter only.
+double discContrast(const cv::Mat& gray, const cv::Point2d& centre, double r, double aspect)
+{
+  std::array<int, 256> inner{};
+  std::array<double, 4> ring{};
+  if (!discAndRing(gray, centre, r, aspect, inner, ring))
+    return 0.0;  // a quarter off the image: not judged
+  const double in_mean = meanBetween(inner, 0.0, 1.0);
+  if (!std::isfinite(in_mean))
+    return 0.0;
+  double lowest = 1.0;
+  int darker = 0;
+  for (const double ring_mean : ring)
+  {
+    const double d = ring_mean - in_mean;
     darker += d > 0.0 ? 1 : -1;
     lowest = std::min(lowest, std::abs(d) / 255.0);
   }
   // Signed: positive for a disc darker than all around it, negative for one lighter.
   return std::abs(darker) == 4 ? (darker > 0 ? lowest : -lowest) : 0.0;
+}
+
+// A bore seen through, its far end's light a lens in part of it: its darker half darker than the
+// face on every side, its brightest fifth brighter. As a fraction of full scale, the smaller of
+// the two least differences; 0 where either fails. (A lens over a third of the bore and a face
+// shaded across it leave the whole disc's mean between the ring's quarters: discContrast() 0.)
+double litBoreContrast(const cv::Mat& gray, const cv::Point2d& centre, double r)
+{
+  std::array<int, 256> inner{};
+  std::array<double, 4> ring{};
+  if (!discAndRing(gray, centre, r, 1.0, inner, ring))
+    return 0.0;
+  const double dark = meanBetween(inner, 0.0, 0.5);
+  const double lit = meanBetween(inner, 0.8, 1.0);
+  if (!std::isfinite(dark) || !std::isfinite(lit))
+    return 0.0;
+  double lowest = 1.0;
+  for (const double ring_mean : ring)
+    lowest = std::min({lowest, (ring_mean - dark) / 255.0, (lit - ring_mean) / 255.0});
+  return std::max(lowest, 0.0);
 }
 
 // Mean grey level of `gray` over the pixels inside the circle (centre, r) and outside every one
@@ -1443,6 +1504,12 @@ double SpoolDetector::signedBoreContrast(const cv::Point2d& centre, double r, do
 {
   const cv::Point3d disc = inFrame(centre, r);
   return discContrast(preprocessed_, {disc.x, disc.y}, disc.z, aspect);
+}
+
+double SpoolDetector::litBoreContrast(const cv::Point2d& centre, double r) const
+{
+  const cv::Point3d disc = inFrame(centre, r);
+  return spool_vision::litBoreContrast(preprocessed_, {disc.x, disc.y}, disc.z);
 }
 
 void SpoolDetector::detectHoles(const HoughSearch& hole_search)
