@@ -172,7 +172,7 @@ public:
   /// A free hole fit's centre lies within this fraction of its radius of the bore's.
   static constexpr double kKnownSizeShift = 0.25;
   /// rad: a spool axis this far off the optical axis (offAxis()) puts its bore's lit wall on
-  /// another side than the principal point's (remeasureBoreAlongAxis()), and its own rim, cut by
+  /// another side than the principal point's (remeasureBore()), and its own rim, cut by
   /// the frame, is sampled as densely as a whole one (measureObliqueRim()).
   static constexpr double kObliqueAxisAngle = 10.0 * M_PI / 180.0;
   /// The scales of the bore's ellipse obliqueInnerRing() tries, and the least that says the flange
@@ -297,9 +297,16 @@ private:
   /// sight; without an axis, the flange's measured width scaled).
   bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt,
                               const std::optional<cv::Vec3d>& axis = std::nullopt);
-  /// The bore of a spool seen far off its axis (offAxis()) measured again at its known size
-  /// with the lit wall on the side the measured axis gives; the position moved through it.
-  void remeasureBoreAlongAxis(const SpoolGeometry& geometry, const cv::Vec3d& axis, SpoolDetection& result);
+  /// The bore measured again at its known size once the flange's pose is measured (a hole score
+  /// unchanged: it stays the evidence the spool was taken on); the position moved through it.
+  /// With the spool's `axis` (seen far off it: offAxis()), the lit wall on the side it gives;
+  /// without, the flange's measured ellipse gives the bore's shape.
+  void remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis, SpoolDetection& result);
+  /// Whether `result`'s bore was measured round while its flange measures as an ellipse narrower
+  /// than kNearAxisAspect: the bore was measured on the flange's Hough circle, before the flange's
+  /// pose, and where the pose gives no axis nothing measured it again (a 0.8-wide dark bore 2-5
+  /// px off centre and 10-20% large: oblique seed 7 #74, seed 19 #1 at 640x480).
+  static bool roundBoreInOvalFlange(const SpoolDetection& result);
   /// The bore of a spool seen far off its axis (offAxis()) measured at its own size (the
   /// ellipse's shape as measureBoreAtKnownSize() with the axis sets it, its scale free in
   /// kOwnScaleMin..kOwnScaleMax: HoughAccumulator::fitCentreAndScale()) into `bore`; true where

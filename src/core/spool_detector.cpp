@@ -292,8 +292,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     oblique_inner_ring = whole_frame && obliqueInnerRing(result, bore);
     inner_ring = oblique_inner_ring;
     if (!inner_ring)
-      remeasureBoreAlongAxis(geometry, axis, result);
+      remeasureBore(geometry, axis, result);
   }
+  else if (whole_frame && !along_rim && result.hole_detected && !inner_ring && roundBoreInOvalFlange(result))
+    remeasureBore(geometry, std::nullopt, result);
   measureBoreParallax(geometry, result);
   toFramePixels(geometry.camera(), result);
   bool outer_taken = false;
@@ -1233,7 +1235,16 @@ bool SpoolDetector::offAxis(const cv::Vec3d& axis)
   return axis[2] > 0.0 && std::acos(std::min(1.0, axis[2])) >= kObliqueAxisAngle;
 }
 
-void SpoolDetector::remeasureBoreAlongAxis(const SpoolGeometry& geometry, const cv::Vec3d& axis, SpoolDetection& result)
+bool SpoolDetector::roundBoreInOvalFlange(const SpoolDetection& result)
+{
+  const Circle& flange = result.flange;
+  const Circle& hole = result.hole;
+  return flange.r_horizontal > 0.0 && flange.r_horizontal < kNearAxisAspect * flange.r_vertical &&
+         !(hole.r_horizontal < kNearAxisAspect * hole.r_vertical);
+}
+
+void SpoolDetector::remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis,
+                                  SpoolDetection& result)
 {
   const double score = result.hole.score;
   if (!measureBoreAtKnownSize(result, std::nullopt, axis))
