@@ -278,6 +278,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     takeObliqueRim();
     geometry.measure(result, rim_);
   }
+  if (whole_frame && !along_rim && result.hole_detected)
+    frontRimAboutOwnBore(image, format, geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size (seen far
   // off its axis, with the lit wall on the side the axis gives).
   Circle bore;
@@ -1228,6 +1230,25 @@ bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fi
   const std::optional<Circle> own =
       boreAtOwnSize(spool, offAxis(fit.axis) ? std::optional<cv::Vec3d>(fit.axis) : std::nullopt);
   return own && std::abs(own->r_vertical / matcher_.holeRadius(fit.rim) - 1.0) <= kOwnScaleAgreement;
+}
+
+void SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                         SpoolDetection& result)
+{
+  const std::optional<Circle> own =
+      boreAtOwnSize(result, offAxis(result.axis) ? std::optional<cv::Vec3d>(result.axis) : std::nullopt);
+  // A smaller circle inside the bore that is lighter than the rest of it is a lens, not the rim.
+  if (!own || own->r_vertical > kSilhouetteBoreScale * matcher_.holeRadius(result.flange) ||
+      litInside(*own, result.hole))
+    return;
+  if (!searchRimAbout(image, format, geometry, *own, std::nullopt) || oblique_rim_.support < kObliqueSpoolSupport ||
+      !boreAgreesWith(*own, oblique_rim_))
+    return;
+  result.flange = oblique_rim_.rim;
+  result.hole = *own;
+  gatherRim(result, params_.hough.flange_polarity);
+  takeObliqueRim();
+  geometry.measure(result, rim_);
 }
 
 bool SpoolDetector::offAxis(const cv::Vec3d& axis)

@@ -594,3 +594,28 @@ TEST(FailureKinds, ADarkBoreInAnOvalFlangeIsMeasuredAsAnOval)
         << frame.truth.hole->y << ") r " << frame.truth.hole->r;
   }
 }
+
+// Seen 30-40 deg off its axis, a spool's front and back flanges make one outline, and a circle
+// fitted to it is 15-25% larger than the front rim and off the bore towards the back flange; the
+// matcher's oblique tolerances take it with the bore inside, and its depth is 8-12% short (oblique
+// seed 7 #14, seed 19 #62, seed 37 #88 of 100 at 640x480). The bore at its own size is under 0.8
+// of what that circle allows, with no lit lens to explain it: the front rim is found about the
+// bore instead, its depth within 3%.
+TEST(FailureKinds, AnOutlineLargerThanItsBoreAllowsIsNotTheFlange)
+{
+  for (const auto& [seed, index] : {std::pair{7, 14}, std::pair{19, 62}, std::pair{37, 88}})
+  {
+    SCOPED_TRACE("oblique seed " + std::to_string(seed) + " #" + std::to_string(index));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(FrameSet::kOblique, seed, index, 100, 640, detector);
+    const auto target = spool_vision::targetSpool(frame.truth);
+    ASSERT_TRUE(target && target->in_slot);
+    ASSERT_GT(target->view_angle, 30.0 * kDeg);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected);
+    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
+        << "detected (" << d.flange.x << ", " << d.flange.y << ") r " << d.flange.r << ", target (" << target->flange.x
+        << ", " << target->flange.y << ") r " << target->flange.r;
+    EXPECT_NEAR(d.distance, target->distance, 0.03 * target->distance);
+  }
+}
