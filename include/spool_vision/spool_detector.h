@@ -317,19 +317,24 @@ private:
   /// it with `axis`, its scale free in kOwnScaleMin..kOwnScaleMax of the size the flange gives it
   /// (HoughAccumulator::fitCentreAndScale()); none where its rim scores under hole_sensitivity.
   std::optional<Circle> boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis);
-  /// Where `result`'s bore, measured at its own size (boreAtOwnSize(), with the pose's axis where
-  /// it is offAxis()), is kSilhouetteBoreScale or less of the size its flange gives it and is no
-  /// lit lens inside the bore (litInside()), the flange is an outline larger than the spool's
-  /// front rim: the joint silhouette of its front and back flanges seen 25-40 deg off its axis,
-  /// whose circle is 15-25% large and off the bore towards the back flange (depth 8-20% short).
-  /// The front rim is then searched about the bore at its own size (searchRimAbout(): the depth
-  /// its size gives, RimPoseSearch) and taken, with that bore, where it has kObliqueSpoolSupport
-  /// and agrees with the bore (boreAgreesWith()); the pose is measured again. Else `result` stays.
+  /// Where `result`'s bore, under kSilhouetteBoreWhole at the size its flange gives it and measured
+  /// at its own size (boreAtOwnSize(), with the pose's axis where it is offAxis()), is
+  /// kSilhouetteBoreScale or less of the size its flange gives it and is no lit lens inside the bore
+  /// (litInside()), the flange is an outline larger than the spool's front rim: the joint silhouette
+  /// of its front and back flanges seen 25-40 deg off its axis, whose circle is 15-25% large and off
+  /// the bore towards the back flange (depth 8-20% short). The front rim is then searched about the
+  /// bore at its own size (searchRimAbout(): the depth its size gives, RimPoseSearch) and taken, with
+  /// that bore, where it has kObliqueSpoolSupport and agrees with the bore (boreAgreesWith()); the
+  /// pose is measured again. Else `result` stays.
   void frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                             SpoolDetection& result);
   /// frontRimAboutOwnBore()'s bound: a bore this much smaller than its flange allows is not its
   /// rim's (the hard set's right flanges measure 0.74-0.82 only about a lit lens: litInside()).
   static constexpr double kSilhouetteBoreScale = 0.8;
+  /// A bore whose rim at the size the flange gives it scores this much is that size (a bore 0.8 of
+  /// it would leave that rim bare): frontRimAboutOwnBore() does not measure it (the joint
+  /// silhouettes' bores scored 0.30-0.95 there; two in three of the hard set's right ones 0.97-1).
+  static constexpr double kSilhouetteBoreWhole = 0.97;
   /// Whether `hole`, measured at its own size (boreAtOwnSize(), the axis `fit`'s where it is
   /// offAxis()), is within kOwnScaleAgreement of the size `fit`'s rim gives it.
   bool boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit);

@@ -1235,6 +1235,8 @@ bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fi
 void SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                          SpoolDetection& result)
 {
+  if (result.hole.score >= kSilhouetteBoreWhole)
+    return;
   const std::optional<Circle> own =
       boreAtOwnSize(result, offAxis(result.axis) ? std::optional<cv::Vec3d>(result.axis) : std::nullopt);
   // A smaller circle inside the bore that is lighter than the rest of it is a lens, not the rim.
