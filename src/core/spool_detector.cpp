@@ -1017,7 +1017,8 @@ double SpoolDetector::selectTarget(const cv::Point2d& reference, const HoughSear
   {
     std::swap(holes_, target_holes_);
     takeSpool(best->flange, best->hole, result);
-    measureBoreAtKnownSize(result);
+    if (!measureBoreAtKnownSize(result))
+      measureBoreAboutFlangeCentre(result);
     // With hole_polarity bright (the thesis) the "hole" is the lit region itself.
     if (params_.hough.hole_polarity != Polarity::kBright)
       findLens(result);
@@ -1196,6 +1197,20 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
     return true;
   }
   return false;
+}
+
+bool SpoolDetector::measureBoreAboutFlangeCentre(SpoolDetection& result)
+{
+  const Circle& flange = result.flange;
+  if (flange.r_horizontal > 0.0 && flange.r_horizontal < kNearAxisAspect * flange.r_vertical)
+    return false;
+  SpoolDetection about = result;
+  about.hole.x = flange.x;
+  about.hole.y = flange.y;
+  if (!measureBoreAtKnownSize(about))
+    return false;
+  result.hole = about.hole;
+  return true;
 }
 
 std::optional<Circle> SpoolDetector::boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis)

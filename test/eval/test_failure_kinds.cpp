@@ -619,3 +619,30 @@ TEST(FailureKinds, AnOutlineLargerThanItsBoreAllowsIsNotTheFlange)
     EXPECT_NEAR(d.distance, target->distance, 0.03 * target->distance);
   }
 }
+
+// Near its axis, a bore seen through shows a lit lens in part of it, and the hole circle followed
+// the lens's edge, 7-12 px off the bore's centre: beyond the reach of the fit at the size the
+// flange gives it, which failed, so the lens circle stood; the pose's axis came out 16 deg off and
+// the depth 3.6-4.0% short (approach_hard seed 83011 #4 of 40 at 1.0 m, 640x480 and 1280x720;
+// hard seed 7 #27 of 100 at 640x480, 16 px off, 3.8% long). Measured about the flange's centre the
+// bore is found: its centre within 2 px, the depth within 1%.
+TEST(FailureKinds, ABoreMissedAboutALensCircleIsMeasuredAboutTheFlangesCentre)
+{
+  for (const auto& [set, seed, index, count, width] :
+       {std::tuple{FrameSet::kApproachHard, 83011, 4, 40, 640}, std::tuple{FrameSet::kApproachHard, 83011, 4, 40, 1280},
+        std::tuple{FrameSet::kHard, 7, 27, 100, 640}})
+  {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(set, seed, index, count, width, detector, width == 1280 ? 720 : 0);
+    const auto target = spool_vision::targetSpool(frame.truth);
+    ASSERT_TRUE(target && target->in_slot && frame.truth.hole);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected && d.hole_detected);
+    ASSERT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
+    EXPECT_LE(std::hypot(d.hole.x - frame.truth.hole->x, d.hole.y - frame.truth.hole->y), 2.0)
+        << "hole (" << d.hole.x << ", " << d.hole.y << "), truth (" << frame.truth.hole->x << ", "
+        << frame.truth.hole->y << ")";
+    EXPECT_NEAR(d.distance, frame.truth.distance, 0.01 * frame.truth.distance);
+  }
+}
