@@ -309,9 +309,10 @@ private:
   static bool roundBoreInOvalFlange(const SpoolDetection& result);
   /// measureBoreAtKnownSize() about the flange's centre instead of the hole's, where the flange is
   /// within kNearAxisAspect of round (near its axis the bore is on the flange's centre); true and
-  /// `result.hole` replaced where it finds the bore. For a hole circle that followed a lit lens
-  /// inside the bore, 7-12 px off its centre, beyond the known-size fit's reach from it: the pose's
-  /// axis then came out 16 deg off and the depth 3.6% short (approach_hard seed 83011 at 1.0 m).
+  /// `result.hole` replaced where it finds a bore whole enough in the frame
+  /// (kMinHoleVisibleFraction). For a hole circle that followed a lit lens inside the bore, 7-12 px
+  /// off its centre, beyond the known-size fit's reach from it: the pose's axis then came out 16 deg
+  /// off and the depth 3.6% short (approach_hard seed 83011 at 1.0 m).
   bool measureBoreAboutFlangeCentre(SpoolDetection& result);
   /// The bore of a spool seen far off its axis (offAxis()) measured at its own size (the
   /// ellipse's shape as measureBoreAtKnownSize() with the axis sets it, its scale free in

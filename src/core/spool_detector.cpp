@@ -1207,7 +1207,8 @@ bool SpoolDetector::measureBoreAboutFlangeCentre(SpoolDetection& result)
   SpoolDetection about = result;
   about.hole.x = flange.x;
   about.hole.y = flange.y;
-  if (!measureBoreAtKnownSize(about))
+  // A bore the frame cuts is no evidence of where the spool's axis is (ConcentricMatcher::accepts()).
+  if (!measureBoreAtKnownSize(about) || about.hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction)
     return false;
   result.hole = about.hole;
   return true;
