@@ -307,6 +307,9 @@ private:
   /// pose, and where the pose gives no axis nothing measured it again (a 0.8-wide dark bore 2-5
   /// px off centre and 10-20% large: oblique seed 7 #74, seed 19 #1 at 640x480).
   static bool roundBoreInOvalFlange(const SpoolDetection& result);
+  /// Whether `circle` was measured as an ellipse narrower than kNearAxisAspect (a circle fit has no
+  /// r_horizontal: round).
+  static bool oval(const Circle& circle);
   /// measureBoreAtKnownSize() about the flange's centre instead of the hole's, where the flange is
   /// within kNearAxisAspect of round (near its axis the bore is on the flange's centre); true and
   /// `result.hole` replaced where it finds a bore whole enough in the frame
@@ -474,6 +477,9 @@ private:
   /// rim_ for a rim RimPoseSearch found: the frame's edges on it (gatherRim()) where there are
   /// kMinGatheredRim, else the search's moving edges.
   void takeObliqueRim();
+  /// The rim RimPoseSearch found (oblique_rim_) as `result`'s flange, with `hole` as its bore; its
+  /// edges as the rim (takeObliqueRim()) and the pose measured again.
+  void takeSpoolAboutBore(const SpoolGeometry& geometry, const Circle& hole, SpoolDetection& result);
   /// A whole-frame result with a hole rim, measured again about its bore (RimPoseSearch) when its
   /// own pose's rim, measured by moving edges, has under kObliqueRimSupport of support: the
   /// search's rim replaces the flange and its edges the rim when it is supported by at least

@@ -317,8 +317,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     // the inner ring taken (faces carry them at 0.86 of the rim: hard set seed 7 #10) is no
     // flange, but the next rim is searched above it.
     double below = result.flange.r_vertical;
-    const bool near_axis =
-        !(result.flange.r_horizontal > 0.0) || result.flange.r_horizontal >= kNearAxisAspect * result.flange.r_vertical;
+    const bool near_axis = !oval(result.flange);
     for (int ring = 0; ring < kMaxRibRings; ++ring)
     {
       const double inner = result.flange.r_vertical;
@@ -457,11 +456,7 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
         oblique_rim_.support >= least && boreAgreesWith(hole, oblique_rim_)) &&
       !smallerBoreRim(image, format, geometry, hole_search, result, least, hole))
     return;
-  result.flange = oblique_rim_.rim;
-  result.hole = hole;
-  gatherRim(result, params_.hough.flange_polarity);
-  takeObliqueRim();
-  geometry.measure(result, rim_);
+  takeSpoolAboutBore(geometry, hole, result);
 }
 
 bool SpoolDetector::smallerBoreRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
@@ -549,6 +544,15 @@ void SpoolDetector::takeObliqueRim()
   // many; the moving edges, one per sample, only where too few of those are on it.
   if (rim_.size() < kMinGatheredRim)
     rim_.assign(oblique_rim_.edges.begin(), oblique_rim_.edges.end());
+}
+
+void SpoolDetector::takeSpoolAboutBore(const SpoolGeometry& geometry, const Circle& hole, SpoolDetection& result)
+{
+  result.flange = oblique_rim_.rim;
+  result.hole = hole;
+  gatherRim(result, params_.hough.flange_polarity);
+  takeObliqueRim();
+  geometry.measure(result, rim_);
 }
 
 bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,
@@ -1201,17 +1205,16 @@ bool SpoolDetector::measureBoreAtKnownSize(SpoolDetection& result, std::optional
 
 bool SpoolDetector::measureBoreAboutFlangeCentre(SpoolDetection& result)
 {
-  const Circle& flange = result.flange;
-  if (flange.r_horizontal > 0.0 && flange.r_horizontal < kNearAxisAspect * flange.r_vertical)
+  if (oval(result.flange))
     return false;
-  SpoolDetection about = result;
-  about.hole.x = flange.x;
-  about.hole.y = flange.y;
+  const Circle hole = result.hole;
+  result.hole.x = result.flange.x;
+  result.hole.y = result.flange.y;
   // A bore the frame cuts is no evidence of where the spool's axis is (ConcentricMatcher::accepts()).
-  if (!measureBoreAtKnownSize(about) || about.hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction)
-    return false;
-  result.hole = about.hole;
-  return true;
+  if (measureBoreAtKnownSize(result) && result.hole.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction)
+    return true;
+  result.hole = hole;
+  return false;
 }
 
 std::optional<Circle> SpoolDetector::boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis)
@@ -1262,11 +1265,7 @@ void SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat forma
   if (!searchRimAbout(image, format, geometry, *own, std::nullopt) || oblique_rim_.support < kObliqueSpoolSupport ||
       !boreAgreesWith(*own, oblique_rim_))
     return;
-  result.flange = oblique_rim_.rim;
-  result.hole = *own;
-  gatherRim(result, params_.hough.flange_polarity);
-  takeObliqueRim();
-  geometry.measure(result, rim_);
+  takeSpoolAboutBore(geometry, *own, result);
 }
 
 bool SpoolDetector::offAxis(const cv::Vec3d& axis)
@@ -1274,12 +1273,14 @@ bool SpoolDetector::offAxis(const cv::Vec3d& axis)
   return axis[2] > 0.0 && std::acos(std::min(1.0, axis[2])) >= kObliqueAxisAngle;
 }
 
+bool SpoolDetector::oval(const Circle& circle)
+{
+  return circle.r_horizontal > 0.0 && circle.r_horizontal < kNearAxisAspect * circle.r_vertical;
+}
+
 bool SpoolDetector::roundBoreInOvalFlange(const SpoolDetection& result)
 {
-  const Circle& flange = result.flange;
-  const Circle& hole = result.hole;
-  return flange.r_horizontal > 0.0 && flange.r_horizontal < kNearAxisAspect * flange.r_vertical &&
-         !(hole.r_horizontal < kNearAxisAspect * hole.r_vertical);
+  return oval(result.flange) && !oval(result.hole);
 }
 
 void SpoolDetector::remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis,
