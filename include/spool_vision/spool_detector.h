@@ -335,8 +335,13 @@ private:
   /// the bore towards the back flange (depth 8-20% short). The front rim is then searched about the
   /// bore at its own size (searchRimAbout(): the depth its size gives, RimPoseSearch) and taken, with
   /// that bore, where it has kObliqueSpoolSupport and agrees with the bore (boreAgreesWith()); the
-  /// pose is measured again. Else `result` stays.
-  void frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+  /// pose is measured again. Where none is and the outline's circle is weak (under
+  /// ConcentricMatcher::kSolidRimScore: the two flanges' arcs, 0.46-0.58 on oblique seeds 43 and 89)
+  /// it is no spool: `result` is cleared (a right flange whose dark bore measured small is solid,
+  /// 0.85-1.0 on the packed and hard sets), and false is returned: the frame is not searched again
+  /// with a larger edge budget (its edges found the spool's outline; the second search took a rib
+  /// ring about the bore, 63% deep, on oblique seed 43 #7). Else `result` stays, and true.
+  bool frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                             SpoolDetection& result);
   /// frontRimAboutOwnBore()'s bound: a bore this much smaller than its flange allows is not its
   /// rim's (the hard set's right flanges measure 0.74-0.82 only about a lit lens: litInside()).

@@ -278,8 +278,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     takeObliqueRim();
     geometry.measure(result, rim_);
   }
-  if (whole_frame && !along_rim && result.hole_detected)
-    frontRimAboutOwnBore(image, format, geometry, result);
+  const bool outline_refused =
+      whole_frame && !along_rim && result.hole_detected && !frontRimAboutOwnBore(image, format, geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size (seen far
   // off its axis, with the lit wall on the side the axis gives).
   Circle bore;
@@ -377,7 +377,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   if (bare_ring && !outer_taken)
     result = SpoolDetection();
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  if (!window && !result.detected && budget_bound && !search_.second)
+  if (!window && !result.detected && budget_bound && !search_.second && !outline_refused)
   {
     // Nothing in the whole frame, whose edges filled the budget: texture elsewhere may have taken
     // the target rim's share (a clear target missed at edge_budget 6, found at 8). Searched again with
@@ -1251,21 +1251,29 @@ bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fi
   return own && std::abs(own->r_vertical / matcher_.holeRadius(fit.rim) - 1.0) <= kOwnScaleAgreement;
 }
 
-void SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+bool SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                          SpoolDetection& result)
 {
   if (result.hole.score >= kSilhouetteBoreWhole)
-    return;
+    return true;
   const std::optional<Circle> own =
       boreAtOwnSize(result, offAxis(result.axis) ? std::optional<cv::Vec3d>(result.axis) : std::nullopt);
   // A smaller circle inside the bore that is lighter than the rest of it is a lens, not the rim.
   if (!own || own->r_vertical > kSilhouetteBoreScale * matcher_.holeRadius(result.flange) ||
       litInside(*own, result.hole))
-    return;
+    return true;
   if (!searchRimAbout(image, format, geometry, *own, std::nullopt) || oblique_rim_.support < kObliqueSpoolSupport ||
       !boreAgreesWith(*own, oblique_rim_))
-    return;
+  {
+    // Without its front rim, a weak outline too large for its bore is not reported as a spool.
+    if (result.flange.score >= ConcentricMatcher::kSolidRimScore)
+      return true;
+    result = SpoolDetection();
+    geometry.measure(result, rim_);
+    return false;
+  }
   takeSpoolAboutBore(geometry, *own, result);
+  return true;
 }
 
 bool SpoolDetector::offAxis(const cv::Vec3d& axis)
