@@ -694,13 +694,19 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks, const
   // whose votes straddle cells still forms one peak.
   smoothed_data_.resize(std::max(smoothed_data_.size(), votes_.total()));
   smoothed_ = cv::Mat(votes_.size(), CV_32F, smoothed_data_.data());
-  std::fill(smoothed_.ptr<float>(), smoothed_.ptr<float>() + smoothed_.total(), 0.0f);
+  // Only the border is cleared: every cell inside it is written below.
+  const int last = votes_.cols - 1;
+  std::fill(smoothed_.ptr<float>(0), smoothed_.ptr<float>(0) + votes_.cols, 0.0f);
+  std::fill(smoothed_.ptr<float>(votes_.rows - 1), smoothed_.ptr<float>(votes_.rows - 1) + votes_.cols, 0.0f);
   for (int y = 1; y + 1 < votes_.rows; ++y)
   {
     const float* a = votes_.ptr<float>(y - 1);
     const float* b = votes_.ptr<float>(y);
     const float* c = votes_.ptr<float>(y + 1);
-    binomial3x3Row(a, b, c, votes_.cols, smoothed_.ptr<float>(y));
+    float* out = smoothed_.ptr<float>(y);
+    out[0] = 0.0f;
+    out[last] = 0.0f;
+    binomial3x3Row(a, b, c, votes_.cols, out);
   }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
   const float floor_votes = static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
