@@ -343,6 +343,9 @@ private:
   /// ring about the bore, 63% deep, on oblique seed 43 #7). Else `result` stays, and true.
   bool frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                             SpoolDetection& result);
+  /// `result` cleared to no spool, with the puller reference at the nominal distance as every
+  /// result without a spool has it (undistorted px).
+  static void noSpool(const SpoolGeometry& geometry, SpoolDetection& result);
   /// frontRimAboutOwnBore()'s bound: a bore this much smaller than its flange allows is not its
   /// rim's (the hard set's right flanges measure 0.74-0.82 only about a lit lens: litInside()).
   static constexpr double kSilhouetteBoreScale = 0.8;

@@ -375,7 +375,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     }
   }
   if (bare_ring && !outer_taken)
-    result = SpoolDetection();
+  {
+    noSpool(geometry, result);
+    toFramePixels(geometry.camera(), result);
+  }
   result.time_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (!window && !result.detected && budget_bound && !search_.second && !outline_refused)
   {
@@ -1268,12 +1271,17 @@ bool SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat forma
     // Without its front rim, a weak outline too large for its bore is not reported as a spool.
     if (result.flange.score >= ConcentricMatcher::kSolidRimScore)
       return true;
-    result = SpoolDetection();
-    geometry.measure(result, rim_);
+    noSpool(geometry, result);
     return false;
   }
   takeSpoolAboutBore(geometry, *own, result);
   return true;
+}
+
+void SpoolDetector::noSpool(const SpoolGeometry& geometry, SpoolDetection& result)
+{
+  result = SpoolDetection();
+  geometry.measure(result);
 }
 
 bool SpoolDetector::offAxis(const cv::Vec3d& axis)
