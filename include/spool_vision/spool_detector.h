@@ -425,11 +425,23 @@ private:
   /// border (cutByBorder) only with a hole rim of cut_flange_hole_score (a disc alone there was a label's print on a
   /// neighbour), is the spool: `result` (undistorted px, its rim in oblique_rim_) and true.
   /// With `bore_led` and no spool taken, where no candidate gives one, the kBoreLedHoles bores
-  /// nearest the reference found over the whole frame are searched the same way.
+  /// nearest the reference found over the whole frame are searched the same way, then
+  /// smallBoreSpool().
   /// The candidates are `flanges`, tried in order of ConcentricMatcher::targetCost().
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                     const std::vector<Circle>& flanges, const HoughSearch& hole_search, double bound, bool bore_led,
                     SpoolDetection& result);
+  /// obliqueSpool()'s last resort: seen 25-40 deg off its axis at 160x120, a spool's dark bore
+  /// measures 3-6 px, under the bores searched so far (kMinKnownSizeRadius), and its outline is no
+  /// circle that leads to it. Bores from the hole search's least radius up to kMinKnownSizeRadius
+  /// are sought about the first kObliqueCandidates of `flanges` in candidate_order_ (within
+  /// kObliqueBoreShift of their size of their centres, in `rows`, px), those inside a larger bore
+  /// of holes_ (the lit lens seen through it: hard seed 7 #10, seed 89 #1 at 160x120) left out, and
+  /// the kBoreLedHoles nearest the reference searched as spoolAboutHoles() does. True with the
+  /// spool in `result` (undistorted px, its rim in oblique_rim_).
+  bool smallBoreSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                      const std::vector<Circle>& flanges, const HoughSearch& hole_search, const cv::Rect2d& rows,
+                      SpoolDetection& result);
   /// Where no spool was found: the first kObliqueCandidates flange candidates nearest the reference
   /// (ConcentricMatcher::targetCost()) searched for a bore in their concentric window larger than
   /// the match allows them (1 + hole_ratio_tolerance times the size they give it, up to
@@ -469,13 +481,15 @@ private:
   /// too small (kTurnedBoreScale).
   bool nearerTurnedSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                          const HoughSearch& hole_search, SpoolDetection& result);
-  /// obliqueSpool()'s search about the first `max_holes` of holes_ that are whole bore rims
-  /// showing as discs: the first rim that passes its guards is the spool (`result`) and true.
+  /// obliqueSpool()'s search about the first `max_holes` of holes_ whose whole rim is in the frame
+  /// (kMinHoleVisibleFraction), `min_bore_radius` (px) and up, and that show as discs: the first rim
+  /// that passes its guards is the spool (`result`) and true.
   /// With `axis_yaw` (nearerTurnedSpool()): holes_ from detectTurnedBores(), each a dark ellipse,
   /// its rim searched about that axis (searchRimAbout()) and its bearing weighed without the rim's
   /// support.
   bool spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference, double bound,
-                       int max_holes, SpoolDetection& result, std::optional<double> axis_yaw = std::nullopt);
+                       double min_bore_radius, int max_holes, SpoolDetection& result,
+                       std::optional<double> axis_yaw = std::nullopt);
   /// Whether `hole`'s size (its vertical semi-axis) is within kObliqueBoreAgreement of what the
   /// flange rim `fit.rim` gives its bore, its lower bound times the cosine of the angle between the
   /// fit's axis and its line of sight (a dark bore seen 35-39 deg off its axis was measured at 0.67-0.76
@@ -635,6 +649,7 @@ private:
   std::vector<Circle> lenses_;
   std::vector<double> stretched_columns_;   ///< detectTurnedBores(): stretched x of each column's left edge
   std::vector<EdgePoint> stretched_edges_;  ///< detectTurnedBores(): hole_edges_ stretched
+  std::vector<Circle> larger_bores_;        ///< smallBoreSpool()'s bores of measurable size
   std::vector<Circle> own_bores_;           ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;         ///< measureLens()'s scratch
   std::vector<std::size_t> order_;

@@ -759,7 +759,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    if (spoolAboutHoles(image, format, reference, bound, kObliqueHoles, result))
+    if (spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kObliqueHoles, result))
       return true;
   }
   if (!replacing && bore_led)
@@ -767,25 +767,65 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
     // No flange circle led to the spool (none among the candidates, or its circle a third of its
     // size off the bore): the bores nearest the reference lead to it instead, over the rows where a
     // spool's axis can be at the puller's level (atPullerLevel() at distance_min..distance_max)
-    // and at sizes whose rim can be measured (wholeBoreRim()): fewer accumulator cells.
+    // and at sizes whose rim can be measured (wholeBoreRim()): fewer accumulator cells. Then the
+    // bores too small for that about the nearest candidates (smallBoreSpool()).
     const auto [top, bottom] = geometry_->pullerLevelRows();
+    const cv::Rect2d rows = cv::Rect2d(0.0, top, preprocessed_.cols, bottom - top) &
+                            cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
     HoughSearch holes = hole_search;
     holes.r_min = std::max(hole_search.r_min, kMinKnownSizeRadius);
-    holes.center_window = cv::Rect2d(0.0, top, preprocessed_.cols, bottom - top) &
-                          cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
+    holes.center_window = rows;
     if (holes.r_min < holes.r_max && !holes.center_window.empty())
     {
       extractHoleEdges(holes.center_window, holes.r_max + 2.0);
       detectHoles(holes);
       orderByDistanceTo(reference, holes_);
-      if (spoolAboutHoles(image, format, reference, bound, kBoreLedHoles, result))
+      if (spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kBoreLedHoles, result))
         return true;
     }
+    if (smallBoreSpool(image, format, reference, flanges, hole_search, rows, result))
+      return true;
   }
   if (replacing)
     std::swap(holes_, target_holes_);
   else
     holes_.clear();  // no target: its hole candidates are none
+  return false;
+}
+
+bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                                   const std::vector<Circle>& flanges, const HoughSearch& hole_search,
+                                   const cv::Rect2d& rows, SpoolDetection& result)
+{
+  HoughSearch holes = hole_search;
+  holes.r_max = std::min(hole_search.r_max, kMinKnownSizeRadius);
+  if (holes.r_min >= holes.r_max)
+    return false;
+  // The bores of measurable size just searched: a ring inside one of them is its lit lens.
+  larger_bores_ = holes_;
+  int tried = 0;
+  for (const std::size_t i : candidate_order_)
+  {
+    if (tried++ == kObliqueCandidates)
+      break;
+    const Circle& flange = flanges[i];
+    const double shift = kObliqueBoreShift * flange.r_vertical;
+    holes.center_window = cv::Rect2d(flange.x - shift, flange.y - shift, 2.0 * shift, 2.0 * shift) & rows;
+    if (holes.center_window.empty())
+      continue;
+    extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+    detectHoles(holes);
+    const auto lens = [&](const Circle& hole)
+    {
+      return std::any_of(larger_bores_.begin(), larger_bores_.end(),
+                         [&](const Circle& bore)
+                         { return std::hypot(bore.x - hole.x, bore.y - hole.y) + hole.r <= bore.r; });
+    };
+    holes_.erase(std::remove_if(holes_.begin(), holes_.end(), lens), holes_.end());
+    orderByDistanceTo(reference, holes_);
+    if (spoolAboutHoles(image, format, reference, kNoMatch, hole_search.r_min, kBoreLedHoles, result))
+      return true;
+  }
   return false;
 }
 
@@ -920,7 +960,7 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
                                 }),
                  holes_.end());
     orderByDistanceTo(reference, holes_);
-    if (spoolAboutHoles(image, format, reference, bound, kTurnedHoles, result, axis_yaws[i]))
+    if (spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kTurnedHoles, result, axis_yaws[i]))
       return true;
   }
   std::swap(holes_, target_holes_);
@@ -968,7 +1008,8 @@ bool SpoolDetector::ringAboutLargeBore(const cv::Point2d& reference, const Hough
 }
 
 bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
-                                    double bound, int max_holes, SpoolDetection& result, std::optional<double> axis_yaw)
+                                    double bound, double min_bore_radius, int max_holes, SpoolDetection& result,
+                                    std::optional<double> axis_yaw)
 {
   const SpoolGeometry& geometry = *geometry_;
   int searched = 0;
@@ -982,7 +1023,7 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
                                      : boreContrast({hole.x, hole.y}, hole.r);
     // A sharp rim about a bore seen through (a lit lens in part of it) counts as a disc too.
     const double least = params_.matcher.bore_contrast;
-    if (!wholeBoreRim(hole) ||
+    if (hole.r < min_bore_radius || hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
         (contrast < least && !(hole.score >= kSharpBoreScore && litBoreContrast({hole.x, hole.y}, hole.r) >= least)))
       continue;
     ++searched;
