@@ -52,19 +52,27 @@ RenderedFrame renderSetFrame(FrameSet set, int seed, int index, int count, int w
   return renderer.render(scene, pose);
 }
 
+// `frame` (set up for `detector`): the slot's spool is the target, detected, its depth within
+// `tolerance` (relative).
+void expectSlotTargetDetected(SpoolDetector& detector, const RenderedFrame& frame, double tolerance)
+{
+  const auto target = spool_vision::targetSpool(frame.truth);
+  ASSERT_TRUE(target && target->in_slot);
+  const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected);
+  EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
+      << "detected (" << d.flange.x << ", " << d.flange.y << ") r " << d.flange.r << ", target (" << target->flange.x
+      << ", " << target->flange.y << ") r " << target->flange.r;
+  EXPECT_NEAR(d.distance, frame.truth.distance, tolerance * frame.truth.distance);
+}
+
 // Frame `index` of 200 of `set` from `seed` at `width` columns: the slot's spool is the target,
 // found, its depth within 2%.
 void expectTargetFound(FrameSet set, int seed, int index, int width)
 {
   SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width));
   SpoolDetector detector;
-  const RenderedFrame frame = renderSetFrame(set, seed, index, 200, width, detector);
-  const auto target = spool_vision::targetSpool(frame.truth);
-  ASSERT_TRUE(target && target->in_slot);
-  const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-  ASSERT_TRUE(d.detected);
-  EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
-  EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
+  expectSlotTargetDetected(detector, renderSetFrame(set, seed, index, 200, width, detector), 0.02);
 }
 
 // Frame `index` of `count` of the oblique set from `seed` at 640x480, its target seen more than
@@ -559,16 +567,9 @@ TEST(FailureKinds, ABoreSeenThroughOnAFaceShadedAcrossLeadsToTheTarget)
     SCOPED_TRACE("approach_hard seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " +
                  std::to_string(width));
     SpoolDetector detector;
-    const RenderedFrame frame =
-        renderSetFrame(FrameSet::kApproachHard, seed, index, 40, width, detector, width == 1280 ? 720 : 0);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot);
-    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-    ASSERT_TRUE(d.detected);
-    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
-        << "detected (" << d.flange.x << ", " << d.flange.y << ") r " << d.flange.r << ", target (" << target->flange.x
-        << ", " << target->flange.y << ") r " << target->flange.r;
-    EXPECT_NEAR(d.distance, frame.truth.distance, 0.02 * frame.truth.distance);
+    expectSlotTargetDetected(
+        detector, renderSetFrame(FrameSet::kApproachHard, seed, index, 40, width, detector, width == 1280 ? 720 : 0),
+        0.02);
   }
 }
 
@@ -679,14 +680,6 @@ TEST(FailureKinds, ABoreUnderSixPixelsLeadsToTheRimWhereNoLargerBoreDoes)
   {
     SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at 160x120");
     SpoolDetector detector;
-    const RenderedFrame frame = renderSetFrame(set, seed, index, 100, 160, detector);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot);
-    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-    ASSERT_TRUE(d.detected);
-    EXPECT_TRUE(spool_vision::flangeMatches(target->flange, d.flange))
-        << "detected (" << d.flange.x << ", " << d.flange.y << ") r " << d.flange.r << ", target (" << target->flange.x
-        << ", " << target->flange.y << ") r " << target->flange.r;
-    EXPECT_NEAR(d.distance, target->distance, 0.03 * target->distance);
+    expectSlotTargetDetected(detector, renderSetFrame(set, seed, index, 100, 160, detector), 0.03);
   }
 }
