@@ -236,16 +236,15 @@ inline bool anyAtLeast(const int* m, int t2)
     any |= m[k] >= t2 ? 1 : 0;
   return any != 0;
 }
-}  // namespace
-
-double visibleRimFraction(double x, double y, double r, cv::Size image_size, const BackFlange& back)
+// Unit-circle samples computed once, cosines and sines apart: visibleRimFraction() runs for every
+// radius bin of every peak, and its loops vectorise over plain arrays.
+struct UnitCircle
 {
-  // Unit-circle samples computed once, cosines and sines apart: this runs for every radius bin of
-  // every peak, and the loop below vectorises over plain arrays.
-  struct UnitCircle
-  {
-    std::array<double, kRimSamples> cos, sin;
-  };
+  std::array<double, kRimSamples> cos, sin;
+};
+
+const UnitCircle& unitCircle()
+{
   static const UnitCircle kUnit = []
   {
     UnitCircle unit;
@@ -257,17 +256,41 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size, con
     }
     return unit;
   }();
+  return kUnit;
+}
+
+// How many of the kRimSamples points of the circle (x, y, r) lie in [-0.5, max_x] x [-0.5, max_y]
+// (a per-sample loop: AVX2 where the CPU has it; each point computed alike either way).
+SPOOL_VISION_PIXEL_LOOP int samplesInImage(const double* cos, const double* sin, double x, double y, double r,
+                                           double max_x, double max_y)
+{
+  int inside = 0;
+  for (std::size_t i = 0; i < kRimSamples; ++i)
+  {
+    const double px = x + r * cos[i];
+    const double py = y + r * sin[i];
+    inside += (px >= -0.5) & (px <= max_x) & (py >= -0.5) & (py <= max_y) ? 1 : 0;
+  }
+  return inside;
+}
+}  // namespace
+
+double visibleRimFraction(double x, double y, double r, cv::Size image_size, const BackFlange& back)
+{
   // Whole circle inside: the common case needs no sampling.
   if (back.growth <= 0.0 && x - r >= -0.5 && y - r >= -0.5 && x + r <= image_size.width - 0.5 &&
       y + r <= image_size.height - 0.5)
     return 1.0;
+  const UnitCircle& unit = unitCircle();
   const double max_x = image_size.width - 0.5;
   const double max_y = image_size.height - 0.5;
+  if (back.growth <= 0.0)
+    return static_cast<double>(samplesInImage(unit.cos.data(), unit.sin.data(), x, y, r, max_x, max_y)) / kRimSamples;
   int inside = 0;
   for (std::size_t i = 0; i < kRimSamples; ++i)
   {
-    const double px = x + r * kUnit.cos[i];
-    const double py = y + r * kUnit.sin[i];
+    const double px = x + r * unit.cos[i];
+    const double py = y + r * unit.sin[i];
     // `&`, not `&&`: no branch per sample.
     const bool in_image = (px >= -0.5) & (px <= max_x) & (py >= -0.5) & (py <= max_y);
     inside += in_image && !back.hides(x, y, r, px, py) ? 1 : 0;
