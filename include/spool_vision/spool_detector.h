@@ -435,10 +435,10 @@ private:
   /// measures 3-6 px, under the bores searched so far (kMinKnownSizeRadius), and its outline is no
   /// circle that leads to it. Bores from the hole search's least radius up to kMinKnownSizeRadius
   /// are sought about the first kObliqueCandidates of `flanges` in candidate_order_ (within
-  /// kObliqueBoreShift of their size of their centres, in `rows`, px), those inside a larger bore
-  /// of holes_ (the lit lens seen through it: hard seed 7 #10, seed 89 #1 at 160x120) left out, and
-  /// the kBoreLedHoles nearest the reference searched as spoolAboutHoles() does. True with the
-  /// spool in `result` (undistorted px, its rim in oblique_rim_).
+  /// kObliqueBoreShift of their size of their centres, in `rows`, px), those under kSharpHoleScore or
+  /// inside a larger bore of holes_ (the lit lens seen through it: hard seed 7 #10, seed 89 #1 at
+  /// 160x120) left out, and the kBoreLedHoles nearest the reference searched as spoolAboutHoles()
+  /// does. True with the spool in `result` (undistorted px, its rim in oblique_rim_).
   bool smallBoreSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                       const std::vector<Circle>& flanges, const HoughSearch& hole_search, const cv::Rect2d& rows,
                       SpoolDetection& result);

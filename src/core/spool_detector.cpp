@@ -815,13 +815,16 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    const auto lens = [&](const Circle& hole)
+    // Only sharp rims: a faint ring that small is any dark speck of the face (oblique seed 103 #109:
+    // a neighbour's rim about one, where the target was not found).
+    const auto no_bore = [&](const Circle& hole)
     {
-      return std::any_of(larger_bores_.begin(), larger_bores_.end(),
+      return hole.score < kSharpHoleScore ||
+             std::any_of(larger_bores_.begin(), larger_bores_.end(),
                          [&](const Circle& bore)
                          { return std::hypot(bore.x - hole.x, bore.y - hole.y) + hole.r <= bore.r; });
     };
-    holes_.erase(std::remove_if(holes_.begin(), holes_.end(), lens), holes_.end());
+    holes_.erase(std::remove_if(holes_.begin(), holes_.end(), no_bore), holes_.end());
     orderByDistanceTo(reference, holes_);
     if (spoolAboutHoles(image, format, reference, kNoMatch, hole_search.r_min, kBoreLedHoles, result))
       return true;
