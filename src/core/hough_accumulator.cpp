@@ -269,7 +269,9 @@ SPOOL_VISION_PIXEL_LOOP int samplesInImage(const double* cos, const double* sin,
   {
     const double px = x + r * cos[i];
     const double py = y + r * sin[i];
-    inside += (px >= -0.5) & (px <= max_x) & (py >= -0.5) & (py <= max_y) ? 1 : 0;
+    // `&`, not `&&`: no branch per sample.
+    const bool in_image = (px >= -0.5) & (px <= max_x) & (py >= -0.5) & (py <= max_y);
+    inside += in_image ? 1 : 0;
   }
   return inside;
 }
