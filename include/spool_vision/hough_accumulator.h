@@ -146,6 +146,29 @@ struct RimMoments
   bool fitEllipse(double& x, double& y, double& semi_x, double& semi_y) const;
 };
 
+// Inline: it runs for every rim point of every fit pass.
+inline void RimMoments::add(double u, double v)
+{
+  const double uu = u * u;
+  const double vv = v * v;
+  su += u;
+  sv += v;
+  suu += uu;
+  suv += u * v;
+  svv += vv;
+  suuu += uu * u;
+  suuv += uu * v;
+  suvv += u * vv;
+  svvv += vv * v;
+  suuuu += uu * uu;
+  suuvv += uu * vv;
+  svvvv += vv * vv;
+  // The octant from signs and the diagonal: the same eight sectors as atan2 (which cost 7% of a
+  // frame here), numbered differently.
+  octants |= 1u << ((v < 0.0 ? 4u : 0u) | (u < 0.0 ? 2u : 0u) | (std::abs(u) < std::abs(v) ? 1u : 0u));
+  ++count;
+}
+
 /// One least-squares step of a rim model on `m`, moments taken in coordinates centred on `model`
 /// and scaled by 1 / mean_r. The model is an axis-aligned ellipse (centre, r_horizontal,
 /// r_vertical: a circle seen from a yawed camera is stretched horizontally) and r, the radius of

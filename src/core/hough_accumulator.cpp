@@ -300,28 +300,6 @@ double visibleRimFraction(double x, double y, double r, cv::Size image_size, con
   return static_cast<double>(inside) / kRimSamples;
 }
 
-void RimMoments::add(double u, double v)
-{
-  const double uu = u * u;
-  const double vv = v * v;
-  su += u;
-  sv += v;
-  suu += uu;
-  suv += u * v;
-  svv += vv;
-  suuu += uu * u;
-  suuv += uu * v;
-  suvv += u * vv;
-  svvv += vv * v;
-  suuuu += uu * uu;
-  suuvv += uu * vv;
-  svvvv += vv * vv;
-  // The octant from signs and the diagonal: the same eight sectors as atan2 (which cost 7% of a
-  // frame here), numbered differently.
-  octants |= 1u << ((v < 0.0 ? 4u : 0u) | (u < 0.0 ? 2u : 0u) | (std::abs(u) < std::abs(v) ? 1u : 0u));
-  ++count;
-}
-
 bool RimMoments::fitCircle(double& x, double& y, double& r) const
 {
   // Kasa fit, u^2 + v^2 + a u + b v + c = 0, from its normal equations.
