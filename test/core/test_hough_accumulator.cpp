@@ -353,6 +353,15 @@ TEST(VisibleRimFraction, CountsTheRimInsideTheImage)
   EXPECT_NEAR(spool_vision::visibleRimFraction(50, 50, 20, {100, 100}), 1.0, 1e-9);
   EXPECT_NEAR(spool_vision::visibleRimFraction(-0.5, -0.5, 20, {100, 100}), 0.25, 0.02);
   EXPECT_NEAR(spool_vision::visibleRimFraction(99.5, 50, 20, {100, 100}), 0.5, 0.02);
+  // The frame-only count (its own vector loop) and the loop with a back flange that hides nothing
+  // (concentric, all but the front disc's size) count the same samples of a rim the border cuts.
+  for (const auto& [x, y] : {std::pair{-0.5, 30.0}, std::pair{99.5, 50.0}, std::pair{80.0, 95.0}})
+  {
+    const BackFlange nothing_hidden{{x, y}, 1e-9};
+    EXPECT_EQ(spool_vision::visibleRimFraction(x, y, 20, {100, 100}),
+              spool_vision::visibleRimFraction(x, y, 20, {100, 100}, nothing_hidden))
+        << x << ", " << y;
+  }
 }
 
 TEST(BackFlange, HidesTheInnerSideOfAnObliqueFrontRim)
