@@ -525,9 +525,9 @@ private:
   /// range). Points into own_bores_; uses hole_edges_.
   const Circle* bestBoreAbout(const Circle& hole, double expected, const HoughSearch& hole_search, double r_min,
                               double r_max);
-  /// A bore rim whose size can be taken as the bore's: at least kMinKnownSizeRadius, its whole rim
-  /// in the frame (kMinHoleVisibleFraction).
-  static bool wholeBoreRim(const Circle& hole);
+  /// A bore rim whose size can be taken as the bore's: at least `min_radius` (px), its whole rim in
+  /// the frame (kMinHoleVisibleFraction).
+  static bool wholeBoreRim(const Circle& hole, double min_radius = kMinKnownSizeRadius);
   /// The rim about `bore` (RimPoseSearch::search into oblique_rim_) at kObliqueBoreNearest to
   /// kObliqueBoreFarthest of the depth its size gives (within distance_min..distance_max); with
   /// `axis_yaw` (rad), RimPoseSearch::searchAbout() within kNeighbourAxisSpread of it, the rim

@@ -499,9 +499,9 @@ const Circle* SpoolDetector::bestBoreAbout(const Circle& hole, double expected, 
   return best == own_bores_.end() ? nullptr : &*best;
 }
 
-bool SpoolDetector::wholeBoreRim(const Circle& hole)
+bool SpoolDetector::wholeBoreRim(const Circle& hole, double min_radius)
 {
-  return hole.r >= kMinKnownSizeRadius && hole.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction;
+  return hole.r >= min_radius && hole.visible_fraction >= ConcentricMatcher::kMinHoleVisibleFraction;
 }
 
 bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
@@ -803,6 +803,15 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
     return false;
   // The bores of measurable size just searched: a ring inside one of them is its lit lens.
   larger_bores_ = holes_;
+  // Only sharp rims: a faint ring that small is any dark speck of the face (oblique seed 103 #109:
+  // a neighbour's rim about one, where the target was not found).
+  const auto no_bore = [&](const Circle& hole)
+  {
+    return hole.score < kSharpHoleScore ||
+           std::any_of(larger_bores_.begin(), larger_bores_.end(),
+                       [&](const Circle& bore)
+                       { return std::hypot(bore.x - hole.x, bore.y - hole.y) + hole.r <= bore.r; });
+  };
   int tried = 0;
   for (const std::size_t i : candidate_order_)
   {
@@ -815,15 +824,6 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    // Only sharp rims: a faint ring that small is any dark speck of the face (oblique seed 103 #109:
-    // a neighbour's rim about one, where the target was not found).
-    const auto no_bore = [&](const Circle& hole)
-    {
-      return hole.score < kSharpHoleScore ||
-             std::any_of(larger_bores_.begin(), larger_bores_.end(),
-                         [&](const Circle& bore)
-                         { return std::hypot(bore.x - hole.x, bore.y - hole.y) + hole.r <= bore.r; });
-    };
     holes_.erase(std::remove_if(holes_.begin(), holes_.end(), no_bore), holes_.end());
     orderByDistanceTo(reference, holes_);
     if (spoolAboutHoles(image, format, reference, kNoMatch, hole_search.r_min, kBoreLedHoles, result))
@@ -1026,7 +1026,7 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
                                      : boreContrast({hole.x, hole.y}, hole.r);
     // A sharp rim about a bore seen through (a lit lens in part of it) counts as a disc too.
     const double least = params_.matcher.bore_contrast;
-    if (hole.r < min_bore_radius || hole.visible_fraction < ConcentricMatcher::kMinHoleVisibleFraction ||
+    if (!wholeBoreRim(hole, min_bore_radius) ||
         (contrast < least && !(hole.score >= kSharpBoreScore && litBoreContrast({hole.x, hole.y}, hole.r) >= least)))
       continue;
     ++searched;
