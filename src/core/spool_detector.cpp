@@ -541,6 +541,11 @@ bool SpoolDetector::boreAgreesWith(const Circle& hole, const RimPoseFit& fit) co
   return seen <= 1.0 + kObliqueBoreAgreement && seen >= (1.0 - kObliqueBoreAgreement) * narrowing;
 }
 
+bool SpoolDetector::boreSizeAgrees(const Circle& hole, const RimPoseFit& fit)
+{
+  return boreAgreesWith(hole, fit) || boreAgreesAtOwnSize(hole, fit);
+}
+
 void SpoolDetector::takeObliqueRim()
 {
   // The frame's edges on the search's rim are placed where the light crosses half-way and are
@@ -1034,7 +1039,7 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
         (oblique_rim_.support < kObliqueSpoolSupport && !boreAgreesAtOwnSize(hole, oblique_rim_)) ||
         !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
         (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
-        !boreAgreesWith(hole, oblique_rim_) ||
+        !boreSizeAgrees(hole, oblique_rim_) ||
         ConcentricMatcher::targetCost({hole.x, hole.y}, axis_yaw ? 1.0 : oblique_rim_.support, reference) >= bound)
       continue;
     takeSpool(oblique_rim_.rim, hole, result);
