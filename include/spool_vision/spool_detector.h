@@ -239,8 +239,12 @@ private:
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
   /// Whether the second search's `second` (kRetryBudgetScale) is taken where the first found no
   /// spool: both its rims solid (ConcentricMatcher::kSolidRimScore), or its bore's whole rim sharp
-  /// (kSecondSearchBoreScore, kSecondSearchBoreRadius and up) and its flange kSecondSearchRimScore.
-  static bool takesSecondSearch(const SpoolDetection& second);
+  /// (kSecondSearchBoreScore, kSecondSearchBoreRadius and up) and its flange kSecondSearchRimScore,
+  /// or found about a bore whose size, measured at the size the rim gives it, agrees with the rim
+  /// (bore_agrees_at_own_size_) and its flange kSecondSearchRimScore: a dark bore seen 34-38 deg off
+  /// its axis scores 0.5-0.6 as a free circle (oblique seed 19 #96, seed 89 #64 at 640x480), while
+  /// a rib ring's bore measures larger than the ring allows.
+  bool takesSecondSearch(const SpoolDetection& second) const;
   /// The most edges kept from a region of `size` (edge_budget; kRetryBudgetScale times it in the
   /// second search).
   std::size_t edgeBudget(cv::Size size) const;
@@ -654,9 +658,12 @@ private:
   std::vector<Circle> lenses_;
   std::vector<double> stretched_columns_;   ///< detectTurnedBores(): stretched x of each column's left edge
   std::vector<EdgePoint> stretched_edges_;  ///< detectTurnedBores(): hole_edges_ stretched
-  std::vector<Circle> larger_bores_;        ///< smallBoreSpool()'s bores of measurable size
-  std::vector<Circle> own_bores_;           ///< innerRing()'s circles about the target's bore
-  std::vector<float> lens_samples_;         ///< measureLens()'s scratch
+  /// The whole frame's search took its spool about a bore that, measured at the size the rim gives
+  /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()): takesSecondSearch() reads it.
+  bool bore_agrees_at_own_size_ = false;
+  std::vector<Circle> larger_bores_;  ///< smallBoreSpool()'s bores of measurable size
+  std::vector<Circle> own_bores_;     ///< innerRing()'s circles about the target's bore
+  std::vector<float> lens_samples_;   ///< measureLens()'s scratch
   std::vector<std::size_t> order_;
   std::vector<std::size_t> candidate_order_;  ///< obliqueSpool()'s and ringAboutLargeBore()'s candidates in order
 };

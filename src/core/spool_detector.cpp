@@ -171,6 +171,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   search_.nested = true;
 
   SpoolDetection result;
+  if (whole_frame)
+    bore_agrees_at_own_size_ = false;
   bool along_rim = window && window->rim.radius > 0.0;
   bool budget_bound = false;
   // A tracked rim's bore is first measured at its known size where the track puts it; the hole
@@ -301,6 +303,9 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   measureBoreParallax(geometry, result);
   toFramePixels(geometry.camera(), result);
   bool outer_taken = false;
+  // Whatever is reported now is no longer the spool about that bore.
+  if (inner_ring || outline_refused)
+    bore_agrees_at_own_size_ = false;
   if (inner_ring)
   {
     // The flange is then the outermost concentric rim that agrees with the bore's size (a face may
@@ -683,7 +688,7 @@ void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection
     move(result.lens_centroid.x, result.lens_centroid.y);
 }
 
-bool SpoolDetector::takesSecondSearch(const SpoolDetection& second)
+bool SpoolDetector::takesSecondSearch(const SpoolDetection& second) const
 {
   if (!second.hole_detected)
     return false;
@@ -691,7 +696,8 @@ bool SpoolDetector::takesSecondSearch(const SpoolDetection& second)
                      second.hole.score >= ConcentricMatcher::kSolidRimScore;
   const bool sharp_bore = second.hole.r >= kSecondSearchBoreRadius && second.hole.score >= kSecondSearchBoreScore &&
                           second.flange.score >= kSecondSearchRimScore;
-  return solid || sharp_bore;
+  const bool agreeing_bore = bore_agrees_at_own_size_ && second.flange.score >= kSecondSearchRimScore;
+  return solid || sharp_bore || agreeing_bore;
 }
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
@@ -1042,6 +1048,7 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
         !boreSizeAgrees(hole, oblique_rim_) ||
         ConcentricMatcher::targetCost({hole.x, hole.y}, axis_yaw ? 1.0 : oblique_rim_.support, reference) >= bound)
       continue;
+    bore_agrees_at_own_size_ = boreAgreesAtOwnSize(hole, oblique_rim_);
     takeSpool(oblique_rim_.rim, hole, result);
     measureBoreAtKnownSize(result);
     findLens(result);
