@@ -360,6 +360,9 @@ private:
   /// Whether `hole`, measured at its own size (boreAtOwnSize(), the axis `fit`'s where it is
   /// offAxis()), is within kOwnScaleAgreement of the size `fit`'s rim gives it.
   bool boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit);
+  /// The same for `spool`'s hole and flange (undistorted px), `axis` its axis (camera optical frame;
+  /// NaN: unknown).
+  bool boreAgreesAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis);
   /// measureBoreAtKnownSize()'s ellipse, centre reach, lit-wall side and search for `result`'s
   /// bore; none where the bore is under kMinKnownSizeRadius.
   struct BoreShape
@@ -659,7 +662,8 @@ private:
   std::vector<double> stretched_columns_;   ///< detectTurnedBores(): stretched x of each column's left edge
   std::vector<EdgePoint> stretched_edges_;  ///< detectTurnedBores(): hole_edges_ stretched
   /// The whole frame's search took its spool about a bore that, measured at the size the rim gives
-  /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()): takesSecondSearch() reads it.
+  /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()), or the second search's
+  /// spool's bore does so: takesSecondSearch() reads it.
   bool bore_agrees_at_own_size_ = false;
   std::vector<Circle> larger_bores_;  ///< smallBoreSpool()'s bores of measurable size
   std::vector<Circle> own_bores_;     ///< innerRing()'s circles about the target's bore

@@ -301,6 +301,16 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   else if (whole_frame && !along_rim && result.hole_detected && !inner_ring && roundBoreInOvalFlange(result))
     remeasureBore(geometry, std::nullopt, result);
   measureBoreParallax(geometry, result);
+  // The second search's spool, however it was found (a circle of either polarity about a bore
+  // whose free circle scored 0.74: oblique seed 131 #3 at 640x480), is as good as one found about
+  // a bore that agrees with its rim (takesSecondSearch()); a rim cut by the border asks the hole
+  // rim it asks in spoolAboutHoles() (a neighbour cut to a third, 13% deep: packed seed 103 #47 at
+  // 160x120).
+  if (search_.second && whole_frame && result.hole_detected && !inner_ring && !outline_refused &&
+      !bore_agrees_at_own_size_)
+    bore_agrees_at_own_size_ =
+        boreAgreesAtOwnSize(result, result.axis) &&
+        (!cutByBorder(result.flange) || result.hole.score >= params_.matcher.cut_flange_hole_score);
   toFramePixels(geometry.camera(), result);
   bool outer_taken = false;
   // Whatever is reported now is no longer the spool about that bore.
@@ -1305,9 +1315,13 @@ bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fi
   SpoolDetection spool;
   spool.flange = fit.rim;
   spool.hole = hole;
-  const std::optional<Circle> own =
-      boreAtOwnSize(spool, offAxis(fit.axis) ? std::optional<cv::Vec3d>(fit.axis) : std::nullopt);
-  return own && std::abs(own->r_vertical / matcher_.holeRadius(fit.rim) - 1.0) <= kOwnScaleAgreement;
+  return boreAgreesAtOwnSize(spool, fit.axis);
+}
+
+bool SpoolDetector::boreAgreesAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis)
+{
+  const std::optional<Circle> own = boreAtOwnSize(spool, offAxis(axis) ? std::optional<cv::Vec3d>(axis) : std::nullopt);
+  return own && std::abs(own->r_vertical / matcher_.holeRadius(spool.flange) - 1.0) <= kOwnScaleAgreement;
 }
 
 bool SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
