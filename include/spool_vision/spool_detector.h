@@ -428,11 +428,11 @@ private:
   /// whose rim is in the frame (kMinHoleVisibleFraction), at least kMinKnownSizeRadius, and whose
   /// disc shows (bore_contrast), the rim is searched (RimPoseSearch) from kObliqueNearest to kObliqueFarthest of
   /// the depth the hole's size gives (within distance_min..distance_max). The first rim with
-  /// kObliqueSpoolSupport whose bore is at the puller's level and agrees with it (boreSizeAgrees), on a rim cut by the
-  /// border (cutByBorder) only with a hole rim of cut_flange_hole_score (a disc alone there was a label's print on a
-  /// neighbour), is the spool: `result` (undistorted px, its rim in oblique_rim_) and true.
-  /// With `bore_led` and no spool taken, where no candidate gives one, the kBoreLedHoles bores
-  /// nearest the reference found over the whole frame are searched the same way, then
+  /// kObliqueSpoolSupport whose bore is at the puller's level and agrees with it (boreAgreesWith, or
+  /// boreAgreesAtOwnSize where that fails), on a rim cut by the border (cutByBorder) only with a hole rim of
+  /// cut_flange_hole_score (a disc alone there was a label's print on a neighbour), is the spool: `result` (undistorted
+  /// px, its rim in oblique_rim_) and true. With `bore_led` and no spool taken, where no candidate gives one, the
+  /// kBoreLedHoles bores nearest the reference found over the whole frame are searched the same way, then
   /// smallBoreSpool().
   /// The candidates are `flanges`, tried in order of ConcentricMatcher::targetCost().
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
@@ -503,11 +503,6 @@ private:
   /// of the size: oblique seed 7 #78, #140, #155): a rim about a bore is the flange only where it
   /// agrees with the bore's own size (a rib ring's hole taken with the flange outside it does not).
   bool boreAgreesWith(const Circle& hole, const RimPoseFit& fit) const;
-  /// boreAgreesWith(), or where the hole's circle is too small for it, boreAgreesAtOwnSize(): the
-  /// Hough circle of a dark bore seen 25-35 deg off its axis, shaded across, can fit its darker
-  /// part only, at 0.7 of its height (oblique seed 89 #55 at 640x480: 15.5 px of 22, the rim
-  /// about it right), while the bore measured at the size the rim gives it agrees.
-  bool boreSizeAgrees(const Circle& hole, const RimPoseFit& fit);
   /// rim_ for a rim RimPoseSearch found: the frame's edges on it (gatherRim()) where there are
   /// kMinGatheredRim, else the search's moving edges.
   void takeObliqueRim();
