@@ -458,6 +458,9 @@ private:
   bool smallBoreSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                       const std::vector<Circle>& flanges, const HoughSearch& hole_search, const cv::Rect2d& rows,
                       SpoolDetection& result);
+  /// holes_ less those of `below` px and up, those under kSharpHoleScore and those inside a bore of
+  /// larger_bores_ (its lit lens).
+  void keepSharpBoresOutside(double below);
   /// Where no spool was found: the first kObliqueCandidates flange candidates nearest the reference
   /// (ConcentricMatcher::targetCost()) searched for a bore in their concentric window larger than
   /// the match allows them (1 + hole_ratio_tolerance times the size they give it, up to
@@ -669,7 +672,7 @@ private:
   /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()), or the second search's
   /// spool's bore does so: takesSecondSearch() reads it.
   bool bore_agrees_at_own_size_ = false;
-  std::vector<Circle> larger_bores_;  ///< smallBoreSpool()'s bores of measurable size
+  std::vector<Circle> larger_bores_;  ///< keepSharpBoresOutside()'s bores of measurable size
   std::vector<Circle> own_bores_;     ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;   ///< measureLens()'s scratch
   std::vector<std::size_t> order_;

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -777,6 +778,20 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
     detectHoles(holes);
     if (spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kObliqueHoles, result))
       return true;
+    // A spool nearer the reference than the one taken, its bore too small to measure (160x120:
+    // oblique seed 109 #151, #297, a neighbour reported where the target's 4 px bore was plain):
+    // sought about the nearest sharp bore as smallBoreSpool() does, the candidate's larger bores
+    // standing for the lens test.
+    if (replacing && holes.r_min < kMinKnownSizeRadius)
+    {
+      larger_bores_.clear();
+      std::copy_if(holes_.begin(), holes_.end(), std::back_inserter(larger_bores_),
+                   [](const Circle& bore) { return bore.r >= kMinKnownSizeRadius; });
+      keepSharpBoresOutside(kMinKnownSizeRadius);
+      orderByDistanceTo(reference, holes_);
+      if (spoolAboutHoles(image, format, reference, bound, hole_search.r_min, kBoreLedHoles, result))
+        return true;
+    }
   }
   if (!replacing && bore_led)
   {
@@ -819,15 +834,6 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
     return false;
   // The bores of measurable size just searched: a ring inside one of them is its lit lens.
   larger_bores_ = holes_;
-  // Only sharp rims: a faint ring that small is any dark speck of the face (oblique seed 103 #109:
-  // a neighbour's rim about one, where the target was not found).
-  const auto no_bore = [&](const Circle& hole)
-  {
-    return hole.score < kSharpHoleScore ||
-           std::any_of(larger_bores_.begin(), larger_bores_.end(),
-                       [&](const Circle& bore)
-                       { return std::hypot(bore.x - hole.x, bore.y - hole.y) + hole.r <= bore.r; });
-  };
   int tried = 0;
   for (const std::size_t i : candidate_order_)
   {
@@ -840,12 +846,28 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    holes_.erase(std::remove_if(holes_.begin(), holes_.end(), no_bore), holes_.end());
+    keepSharpBoresOutside(std::numeric_limits<double>::infinity());
     orderByDistanceTo(reference, holes_);
     if (spoolAboutHoles(image, format, reference, kNoMatch, hole_search.r_min, kBoreLedHoles, result))
       return true;
   }
   return false;
+}
+
+void SpoolDetector::keepSharpBoresOutside(double below)
+{
+  // Only sharp rims: a faint ring that small is any dark speck of the face (oblique seed 103 #109:
+  // a neighbour's rim about one, where the target was not found).
+  holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
+                              [&](const Circle& hole)
+                              {
+                                return !(hole.r < below) || hole.score < kSharpHoleScore ||
+                                       std::any_of(
+                                           larger_bores_.begin(), larger_bores_.end(),
+                                           [&](const Circle& bore)
+                                           { return std::hypot(bore.x - hole.x, bore.y - hole.y) + hole.r <= bore.r; });
+                              }),
+               holes_.end());
 }
 
 Circle SpoolDetector::rimSeenAt(const RimPoseFit& fit) const
