@@ -240,6 +240,7 @@ private:
   /// Whether the second search's `second` (kRetryBudgetScale) is taken where the first found no
   /// spool: both its rims solid (ConcentricMatcher::kSolidRimScore), or its bore's whole rim sharp
   /// (kSecondSearchBoreScore, kSecondSearchBoreRadius and up) and its flange kSecondSearchRimScore,
+  /// or its weak match's flange replaced by the rim about its bore (weak_match_rim_taken_),
   /// or found about a bore whose size, measured at the size the rim gives it, agrees with the rim
   /// (bore_agrees_at_own_size_) and its flange kSecondSearchRimScore: a dark bore seen 34-38 deg off
   /// its axis scores 0.5-0.6 as a free circle (oblique seed 19 #96, seed 89 #64 at 640x480), while
@@ -526,9 +527,29 @@ private:
   /// search's rim replaces the flange and its edges the rim when it is supported by at least
   /// kObliqueRimMargin more (and kObliqueRimMinSupport) and agrees with the hole's size
   /// (boreAgreesWith), or where none does, the rim smallerBoreRim() finds with its bore; the pose is
-  /// then measured again on it. `result` is in undistorted px.
-  void measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+  /// then measured again on it. `result` is in undistorted px. True where the own pose's rim was
+  /// measured on kObliqueRimMinSamples in the frame (the rim judged, replaced or not).
+  bool measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                          const HoughSearch& hole_search, SpoolDetection& result);
+  /// A whole-frame result whose flange is a weak Hough circle (under
+  /// ConcentricMatcher::kSolidRimScore) about its hole: its rim is searched about the hole
+  /// (searchRimAbout(): RimPoseSearch at the depths the hole's size gives) and taken as the flange
+  /// (takeSpoolAboutBore()) where it keeps kWeakMatchRimSupport of its samples, agrees with the
+  /// hole's size (boreAgreesWith()) and lies at the puller's level. Unless the result is the second
+  /// search's and would be dropped (takesSecondSearch()), only a result measureObliqueRim() did not
+  /// judge (`rim_measured` false) is searched, and the rim must also be seen off its axis
+  /// (offAxis()) and, where the result's own pose's rim can be measured, be supported by
+  /// kObliqueRimMargin more than it. measureObliqueRim() leaves these: at 160x120 a rim has under
+  /// kObliqueRimMinRadius and too few samples for its own pose's fit, and seen 25-40 deg off its
+  /// axis the Hough circle lies between the ellipse's semi-axes or about the back flange's
+  /// silhouette (depth 5-25% off) or scores too little to be taken at all. True where the rim
+  /// replaced the flange; `result` in undistorted px.
+  bool rimAboutWeakMatch(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, bool rim_measured,
+                         SpoolDetection& result);
+  /// The least support of the rim rimAboutWeakMatch() takes. Oblique sets of seeds 7-131 at all
+  /// four sizes: at 0.6, a back flange's silhouette at 0.62 (oblique seed 109 #69 at 160x120, 11%
+  /// near) was taken; right rims keep 0.65-0.97.
+  static constexpr double kWeakMatchRimSupport = 0.65;
   /// Where that search finds no rim: the bore measured again about the result's hole at
   /// kSmallerBoreRatio to kInnerRingRatio of the size the flange gives it (a circle around an oblique
   /// rim and its back flange's silhouette is 12-30% too large, and so is the hole measured at its
@@ -672,6 +693,9 @@ private:
   /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()), or the second search's
   /// spool's bore does so: takesSecondSearch() reads it.
   bool bore_agrees_at_own_size_ = false;
+  /// The whole frame's search replaced its weak match by the rim about its bore
+  /// (rimAboutWeakMatch()): takesSecondSearch() takes that spool.
+  bool weak_match_rim_taken_ = false;
   std::vector<Circle> larger_bores_;  ///< keepSharpBoresOutside()'s bores of measurable size
   std::vector<Circle> own_bores_;     ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;   ///< measureLens()'s scratch

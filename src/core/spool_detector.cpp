@@ -173,7 +173,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
 
   SpoolDetection result;
   if (whole_frame)
+  {
     bore_agrees_at_own_size_ = false;
+    weak_match_rim_taken_ = false;
+  }
   bool along_rim = window && window->rim.radius > 0.0;
   bool budget_bound = false;
   // A tracked rim's bore is first measured at its known size where the track puts it; the hole
@@ -272,8 +275,11 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       takeObliqueRim();
   }
   geometry.measure(result, rim_);
-  if (whole_frame && !along_rim && result.hole_detected)
-    measureObliqueRim(image, format, geometry, hole_search, result);
+  const bool rim_measured = whole_frame && !along_rim && result.hole_detected &&
+                            measureObliqueRim(image, format, geometry, hole_search, result);
+  if (whole_frame && !along_rim && !oblique && result.hole_detected &&
+      result.flange.score < ConcentricMatcher::kSolidRimScore)
+    weak_match_rim_taken_ = rimAboutWeakMatch(image, format, geometry, rim_measured, result);
   if (whole_frame && !along_rim && result.hole_detected &&
       nearerTurnedSpool(image, format, reference, hole_search, result))
   {
@@ -316,7 +322,10 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   bool outer_taken = false;
   // Whatever is reported now is no longer the spool about that bore.
   if (inner_ring || outline_refused)
+  {
     bore_agrees_at_own_size_ = false;
+    weak_match_rim_taken_ = false;
+  }
   if (inner_ring)
   {
     // The flange is then the outermost concentric rim that agrees with the bore's size (a face may
@@ -452,11 +461,11 @@ RimSearch SpoolDetector::rimSearch(double reach) const
   return search;
 }
 
-void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+bool SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                       const HoughSearch& hole_search, SpoolDetection& result)
 {
   if (!(result.position.z > 0.0) || result.flange.r_vertical < kObliqueRimMinRadius)
-    return;
+    return false;
   RimSearch own_search = obliqueRimSearch(result.flange.r_vertical);
   own_search.samples_in_view = offAxis(result.axis);
   const cv::Point2d bore(result.hole.x, result.hole.y);
@@ -465,8 +474,10 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
           ? own_rim_.support
           : 0.0;
   // A rim mostly out of the frame has too few samples for any pose's fit: nothing to compare.
-  if (own >= kObliqueRimSupport || rim_pose_search_.samplesInFrame() < kObliqueRimMinSamples)
-    return;
+  if (rim_pose_search_.samplesInFrame() < kObliqueRimMinSamples)
+    return false;
+  if (own >= kObliqueRimSupport)
+    return true;
   const double least = std::max(own + kObliqueRimMargin, kObliqueRimMinSupport);
   Circle hole = result.hole;
   if (!(rim_pose_search_.search(image, format, geometry, bore, kObliqueNearest * result.position.z,
@@ -474,8 +485,36 @@ void SpoolDetector::measureObliqueRim(const cv::Mat& image, PixelFormat format, 
                                 oblique_rim_) &&
         oblique_rim_.support >= least && boreAgreesWith(hole, oblique_rim_)) &&
       !smallerBoreRim(image, format, geometry, hole_search, result, least, hole))
-    return;
+    return true;
   takeSpoolAboutBore(geometry, hole, result);
+  return true;
+}
+
+bool SpoolDetector::rimAboutWeakMatch(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                      bool rim_measured, SpoolDetection& result)
+{
+  // The second search's spool that would be dropped (takesSecondSearch()) has nothing to lose;
+  // any other result is replaced only where measureObliqueRim() could not judge its rim, by a rim
+  // seen off its axis that its own pose's rim, where measured, supports less by kObliqueRimMargin
+  // (a frontal circle is as well measured).
+  const bool dropped = search_.second && !takesSecondSearch(result);
+  if (rim_measured && !dropped)
+    return false;
+  const Circle hole = result.hole;
+  const double least =
+      dropped || !rim_pose_search_.measure(image, format, geometry, {hole.x, hole.y}, result.position, result.axis,
+                                           obliqueRimSearch(result.flange.r_vertical), own_rim_)
+          ? kWeakMatchRimSupport
+          : std::max(kWeakMatchRimSupport, own_rim_.support + kObliqueRimMargin);
+  // No rim has more than all of its samples.
+  if (least > 1.0)
+    return false;
+  if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < least ||
+      !boreAgreesWith(hole, oblique_rim_) || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
+      !(dropped || offAxis(oblique_rim_.axis)))
+    return false;
+  takeSpoolAboutBore(geometry, hole, result);
+  return true;
 }
 
 bool SpoolDetector::smallerBoreRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
@@ -703,7 +742,7 @@ bool SpoolDetector::takesSecondSearch(const SpoolDetection& second) const
   const bool sharp_bore = second.hole.r >= kSecondSearchBoreRadius && second.hole.score >= kSecondSearchBoreScore &&
                           second.flange.score >= kSecondSearchRimScore;
   const bool agreeing_bore = bore_agrees_at_own_size_ && second.flange.score >= kSecondSearchRimScore;
-  return solid || sharp_bore || agreeing_bore;
+  return solid || sharp_bore || agreeing_bore || weak_match_rim_taken_;
 }
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
