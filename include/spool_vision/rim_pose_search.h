@@ -66,17 +66,21 @@ public:
   /// fitted too, within kBoreOffCentre of its size of the bore: a dark bore seen far off its axis is
   /// measured a few px off its centre) and the one with the most support wins; the nearest pose
   /// scoring kOuterCoarseShare of the best is fitted too and replaces it where it is outside() it;
-  /// then outermost() from it. `nearest` and `farthest` positive, nearest <= farthest. False when none fits.
+  /// then outermost() from it. Where none of the kRefined fits, the next `fallback` best covered
+  /// poses are fitted (a rim seen 25-40 deg off its axis borders its own back flange along a third
+  /// of it and covers 0.6-0.8 of its coarse samples, a rib ring inside it all of them, and rib
+  /// rings fail the 3-D fit). `nearest` and `farthest` positive, nearest <= farthest. False when
+  /// none fits.
   bool search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
-              double nearest, double farthest, const RimSearch& search, RimPoseFit& best);
+              double nearest, double farthest, const RimSearch& search, RimPoseFit& best, std::size_t fallback = 0);
   /// search() over the level axes within `half_range` (rad) of `axis_yaw` (rad, the axis's turn
   /// about the camera's y axis from the optical axis: atan2(x, z), camera optical frame),
   /// kYawStep apart, those seen at most kWidestViewAngle off the line of sight to `bore`: a
   /// neighbour of a spool whose axis was measured, seen farther off its axis than search() tries.
-  /// The kRefinedAbout best covered poses are measured in full.
+  /// The kRefinedAbout best covered poses are measured in full; `fallback` as search()'s.
   bool searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                    double nearest, double farthest, const RimSearch& search, double axis_yaw, double half_range,
-                   RimPoseFit& best);
+                   RimPoseFit& best, std::size_t fallback = 0);
 
   /// How many samples of the last measure()'s rim had their whole normal in the frame.
   std::size_t samplesInFrame() const
@@ -117,10 +121,10 @@ public:
 private:
   /// search()'s scan over the axes centre_yaw + k kYawStep, |k| <= turns (rad, level), those within
   /// kWidestViewAngle of the line of sight, the `refined` (at most max(kRefined, kRefinedAbout))
-  /// best covered measured in full.
+  /// best covered measured in full, and where none fits the next `fallback`.
   bool searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                   double nearest, double farthest, const RimSearch& search, double centre_yaw, int turns,
-                  std::size_t refined, RimPoseFit& best);
+                  std::size_t refined, std::size_t fallback, RimPoseFit& best);
   /// measure(), with the centre also fitted within kBoreOffCentre where `off_centre` holds.
   bool measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                    const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, bool off_centre,
@@ -146,6 +150,7 @@ private:
   MovingEdges moving_edges_;
   RimPoseFit candidate_;
   std::vector<CoarsePose> coarse_;  ///< searchYaws()'s poses, in the order scanned
+  std::vector<CoarsePose> ranked_;  ///< searchYaws()'s poses, best covered first (its fallback)
 };
 
 }  // namespace spool_vision

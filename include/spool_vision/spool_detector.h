@@ -571,9 +571,10 @@ private:
   /// The rim about `bore` (RimPoseSearch::search into oblique_rim_) at kObliqueBoreNearest to
   /// kObliqueBoreFarthest of the depth its size gives (within distance_min..distance_max); with
   /// `axis_yaw` (rad), RimPoseSearch::searchAbout() within kNeighbourAxisSpread of it, the rim
-  /// then rimSeenAt() its pose.
+  /// then rimSeenAt() its pose. `fallback`: RimPoseSearch::search's (kBoreRimFallbackPoses where a
+  /// spool is sought about a bore; 0 where a rim found is judged again).
   bool searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const Circle& bore,
-                      std::optional<double> axis_yaw = std::nullopt);
+                      std::size_t fallback, std::optional<double> axis_yaw = std::nullopt);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
   /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
   void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);
@@ -631,6 +632,13 @@ private:
   /// spools square).
   static constexpr double kNeighbourAxisSpread = 20.0 * M_PI / 180.0;
   static constexpr int kRimExtentPoints = 72;
+  /// searchRimAbout()'s poses fitted where none of the best covered fits (RimPoseSearch::search's
+  /// `fallback`): on the 41 sets of session 42, oblique targets found +35 at 160x120, +6 at
+  /// 320x240 and +14 at 640x480 with 8 (12: 3 fewer at 160x120, detections over 10% off 63 where 8
+  /// gave 56). Not where a rim found is judged again (measureObliqueRim(), smallerBoreRim(),
+  /// frontRimAboutOwnBore()): there the poses fitted next were rib rings (hard 47 #22, packed 131
+  /// #32: 18% deep).
+  static constexpr std::size_t kBoreRimFallbackPoses = 8;
   static constexpr double kObliqueBoreNearest = 0.7;
   static constexpr double kObliqueBoreFarthest = 1.25;
   /// A right rim seen 30-40 deg off, its back flange's silhouette beside it, keeps 0.52-0.69 of its

@@ -50,25 +50,26 @@ bool RimPoseSearch::measurePose(const cv::Mat& image, PixelFormat format, const 
 
 bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                            const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
-                           RimPoseFit& best)
+                           RimPoseFit& best, std::size_t fallback)
 {
   const CameraIntrinsics& camera = geometry.camera();
   return searchYaws(image, format, geometry, bore, nearest, farthest, search,
                     std::atan((bore.x - camera.cx) / camera.fx),
-                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, best);
+                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, fallback, best);
 }
 
 bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
-                                double axis_yaw, double half_range, RimPoseFit& best)
+                                double axis_yaw, double half_range, RimPoseFit& best, std::size_t fallback)
 {
   return searchYaws(image, format, geometry, bore, nearest, farthest, search, axis_yaw,
-                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), kRefinedAbout, best);
+                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), kRefinedAbout, fallback, best);
 }
 
 bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
-                               double centre_yaw, int turns, std::size_t refined, RimPoseFit& best)
+                               double centre_yaw, int turns, std::size_t refined, std::size_t fallback,
+                               RimPoseFit& best)
 {
   const CameraIntrinsics& camera = geometry.camera();
   const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
@@ -121,6 +122,32 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
     {
       best = candidate_;  // a copy: each keeps its grown capacity
       found = true;
+    }
+  }
+  if (!found && fallback > 0)
+  {
+    // The rim borders its own back flange along a third of it and covers fewer of its coarse
+    // samples than the rib rings inside it, which the 3-D fit refuses: the next best are fitted.
+    ranked_.assign(coarse_.begin(), coarse_.end());
+    std::stable_sort(ranked_.begin(), ranked_.end(),
+                     [](const CoarsePose& a, const CoarsePose& b) { return a.score > b.score; });
+    std::size_t tried = 0;
+    for (const CoarsePose& pose : ranked_)
+    {
+      if (tried == fallback)
+        break;
+      if (std::any_of(top, top_end,
+                      [&](const CoarsePose& kept_pose)
+                      { return kept_pose.depth == pose.depth && kept_pose.yaw == pose.yaw; }))
+        continue;
+      ++tried;
+      if (measurePose(image, format, geometry, bore, ray * pose.depth,
+                      cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, true, candidate_) &&
+          (!found || candidate_.support > best.support))
+      {
+        best = candidate_;
+        found = true;
+      }
     }
   }
   if (found)

@@ -509,7 +509,7 @@ bool SpoolDetector::rimAboutWeakMatch(const cv::Mat& image, PixelFormat format, 
   // No rim has more than all of its samples.
   if (least > 1.0)
     return false;
-  if (!searchRimAbout(image, format, geometry, hole) || oblique_rim_.support < least ||
+  if (!searchRimAbout(image, format, geometry, hole, kBoreRimFallbackPoses) || oblique_rim_.support < least ||
       !boreAgreesWith(hole, oblique_rim_) || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
       !(dropped || offAxis(oblique_rim_.axis)))
     return false;
@@ -529,7 +529,7 @@ bool SpoolDetector::smallerBoreRim(const cv::Mat& image, PixelFormat format, con
                     std::min(hole_search.r_max, kInnerRingRatio * expected));
   if (!best || !wholeBoreRim(*best) ||
       signedBoreContrast({best->x, best->y}, best->r) < params_.matcher.bore_contrast ||
-      !searchRimAbout(image, format, geometry, *best) || oblique_rim_.support < least ||
+      !searchRimAbout(image, format, geometry, *best, 0) || oblique_rim_.support < least ||
       !boreAgreesWith(*best, oblique_rim_))
     return false;
   hole = *best;
@@ -560,7 +560,7 @@ bool SpoolDetector::wholeBoreRim(const Circle& hole, double min_radius)
 }
 
 bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                   const Circle& bore, std::optional<double> axis_yaw)
+                                   const Circle& bore, std::size_t fallback, std::optional<double> axis_yaw)
 {
   // The depth its size gives, and the flange's size there.
   const GeometryParams& gp = params_.geometry;
@@ -570,11 +570,12 @@ bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, con
   const double farthest = std::min(gp.distance_max, kObliqueBoreFarthest * depth);
   if (!axis_yaw)
     return rim_pose_search_.search(image, format, geometry, {bore.x, bore.y}, nearest, farthest,
-                                   obliqueRimSearch(flange_px), oblique_rim_);
+                                   obliqueRimSearch(flange_px), oblique_rim_, fallback);
   // Its rim's extent in the image from the pose: seen beyond 37 deg off its axis the moving
   // edges' ellipse fit falls back to a circle (fitRimModel()).
   if (!rim_pose_search_.searchAbout(image, format, geometry, {bore.x, bore.y}, nearest, farthest,
-                                    obliqueRimSearch(flange_px), *axis_yaw, kNeighbourAxisSpread, oblique_rim_))
+                                    obliqueRimSearch(flange_px), *axis_yaw, kNeighbourAxisSpread, oblique_rim_,
+                                    fallback))
     return false;
   oblique_rim_.rim = rimSeenAt(oblique_rim_);
   return true;
@@ -1107,8 +1108,8 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
         (contrast < least && !(hole.score >= kSharpBoreScore && litBoreContrast({hole.x, hole.y}, hole.r) >= least)))
       continue;
     ++searched;
-    if (!searchRimAbout(image, format, geometry, hole, axis_yaw) || oblique_rim_.support < kBoreAgreedSupport ||
-        !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
+    if (!searchRimAbout(image, format, geometry, hole, kBoreRimFallbackPoses, axis_yaw) ||
+        oblique_rim_.support < kBoreAgreedSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
         (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
         ConcentricMatcher::targetCost({hole.x, hole.y}, axis_yaw ? 1.0 : oblique_rim_.support, reference) >= bound)
       continue;
@@ -1399,7 +1400,7 @@ bool SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat forma
   if (!own || own->r_vertical > kSilhouetteBoreScale * matcher_.holeRadius(result.flange) ||
       litInside(*own, result.hole))
     return true;
-  if (!searchRimAbout(image, format, geometry, *own, std::nullopt) || oblique_rim_.support < kObliqueSpoolSupport ||
+  if (!searchRimAbout(image, format, geometry, *own, 0) || oblique_rim_.support < kObliqueSpoolSupport ||
       !boreAgreesWith(*own, oblique_rim_))
   {
     // Without its front rim, a weak outline too large for its bore is not reported as a spool.
