@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <utility>
 
 namespace spool_vision
@@ -128,9 +129,11 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
   {
     // The rim borders its own back flange along a third of it and covers fewer of its coarse
     // samples than the rib rings inside it, which the 3-D fit refuses: the next best are fitted.
+    // Best covered first, equal scores in the order scanned (depth, then yaw, rising).
     ranked_.assign(coarse_.begin(), coarse_.end());
-    std::stable_sort(ranked_.begin(), ranked_.end(),
-                     [](const CoarsePose& a, const CoarsePose& b) { return a.score > b.score; });
+    std::sort(ranked_.begin(), ranked_.end(),
+              [](const CoarsePose& a, const CoarsePose& b)
+              { return std::tie(b.score, a.depth, a.yaw) < std::tie(a.score, b.depth, b.yaw); });
     std::size_t tried = 0;
     for (const CoarsePose& pose : ranked_)
     {
