@@ -1745,11 +1745,16 @@ bool SpoolDetector::holeCountsOn(const SpoolMatch& match) const
   // speck a sixth of the rim off the bore, with the circle through the rim and its back
   // flange's silhouette 15-30% off in depth (oblique seed 97 #44, #84, #91 at 320x240; seed 7
   // #21 at 160x120). Without it the search about the bore finds the rim.
-  if (match.flange.score < kBareHoleFlangeScore && hole.score < kSharpHoleScore &&
-      boreContrast({hole.x, hole.y}, hole.r) < least && litBoreContrast({hole.x, hole.y}, hole.r) < least)
+  const bool weak = match.flange.score < kBareHoleFlangeScore && hole.score < kSharpHoleScore;
+  // On a flange cut by the border, a hole rim short of cut_flange_hole_score needs its disc.
+  const bool cut = cutByBorder(match.flange) && hole.score < params_.matcher.cut_flange_hole_score;
+  if (!weak && !cut)
+    return true;
+  // The disc is read once (the costliest test here).
+  const double contrast = boreContrast({hole.x, hole.y}, hole.r);
+  if (weak && contrast < least && litBoreContrast({hole.x, hole.y}, hole.r) < least)
     return false;
-  return !cutByBorder(match.flange) || hole.score >= params_.matcher.cut_flange_hole_score ||
-         boreContrast({hole.x, hole.y}, hole.r) >= least;
+  return !cut || contrast >= least;
 }
 
 std::optional<std::size_t> SpoolDetector::strongFlangeWithBore(const HoughSearch& hole_search) const
