@@ -633,7 +633,7 @@ private:
   static constexpr double kNeighbourAxisSpread = 20.0 * M_PI / 180.0;
   static constexpr int kRimExtentPoints = 72;
   /// searchRimAbout()'s poses fitted where none of the best covered fits (RimPoseSearch::search's
-  /// `fallback`): on the 41 sets of session 42, oblique targets found +36 at 160x120, +3 at
+  /// `fallback`): on the 40 rendered sets of session 42, oblique targets found +36 at 160x120, +3 at
   /// 320x240 and +8 at 640x480 with 8 (with the fallback in every search, 12 found 3 fewer at
   /// 160x120 than 8 and put 63 detections over 10% off where 8 put 56). Not where a rim found is
   /// judged again (measureObliqueRim(), smallerBoreRim(), frontRimAboutOwnBore()): there the poses
