@@ -299,14 +299,18 @@ private:
   /// `axis` (unit, camera optical frame, into the spool; unknown: along the optical axis) says
   /// which side of the rim the lit wall hides, the one away from the axis's vanishing point, and
   /// how much narrower than high the bore's ellipse is (the cosine of its angle to the line of
-  /// sight; without an axis, the flange's measured width scaled).
+  /// sight; without an axis, the flange's measured width scaled). `sized_by_pose` (with `axis`):
+  /// measured too at the size `result`'s pose (position, m, and axis) projects its 3.6 cm front
+  /// rim to (SpoolGeometry::boreExtent()), and the better supported of the two kept.
   bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt,
-                              const std::optional<cv::Vec3d>& axis = std::nullopt);
+                              const std::optional<cv::Vec3d>& axis = std::nullopt, bool sized_by_pose = false);
   /// The bore measured again at its known size once the flange's pose is measured (a hole score
   /// unchanged: it stays the evidence the spool was taken on); the position moved through it.
   /// With the spool's `axis` (seen far off it: offAxis()), the lit wall on the side it gives;
-  /// without, the flange's measured ellipse gives the bore's shape.
-  void remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis, SpoolDetection& result);
+  /// without, the flange's measured ellipse gives the bore's shape. `sized_by_pose`: as
+  /// measureBoreAtKnownSize().
+  void remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis, bool sized_by_pose,
+                     SpoolDetection& result);
   /// Whether `result`'s bore was measured round while its flange measures as an ellipse narrower
   /// than kNearAxisAspect: the bore was measured on the flange's Hough circle, before the flange's
   /// pose, and where the pose gives no axis nothing measured it again (a 0.8-wide dark bore 2-5

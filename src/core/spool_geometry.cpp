@@ -155,6 +155,24 @@ cv::Point3d SpoolGeometry::backProject(double u, double v, double depth) const
   return {(u - camera_.cx) / camera_.fx * depth, (v - camera_.cy) / camera_.fy * depth, depth};
 }
 
+cv::Size2d SpoolGeometry::boreExtent(const cv::Point3d& position, const cv::Vec3d& axis) const
+{
+  if (!(position.z > 0.0) || !std::isfinite(axis[0] + axis[1] + axis[2]) || cv::norm(axis) == 0.0)
+    return {};
+  const cv::Vec3d n = cv::normalize(axis);
+  // Two unit directions in the rim's plane: any vector not along n, crossed with it.
+  const cv::Vec3d seed = std::abs(n[0]) < 0.9 ? cv::Vec3d(1.0, 0.0, 0.0) : cv::Vec3d(0.0, 1.0, 0.0);
+  const cv::Vec3d u = cv::normalize(n.cross(seed));
+  const cv::Vec3d v = n.cross(u);
+  const double radius = 0.5 * params_.hole_diameter;
+  const double px = position.x / position.z;
+  const double py = position.y / position.z;
+  // d(fx X/Z)/dX = fx/Z (1, 0, -X/Z); likewise for y.
+  const double sx = camera_.fx * radius / position.z;
+  const double sy = camera_.fy * radius / position.z;
+  return {sx * std::hypot(u[0] - px * u[2], v[0] - px * v[2]), sy * std::hypot(u[1] - py * u[2], v[1] - py * v[2])};
+}
+
 bool SpoolGeometry::rimPose(const Circle& flange, const cv::Point2d& centre, cv::Point3d& position,
                             cv::Vec3d& axis) const
 {

@@ -266,6 +266,44 @@ TEST(SpoolGeometry, RimPoseGivesDepthPositionAndAxisOfATiltedSpool)
   }
 }
 
+// The bore's front rim projected point by point (the exact pinhole image of the 3.6 cm circle)
+// spans what boreExtent() gives, seen square on and 25-40 deg off its axis, turned or tilted.
+TEST(SpoolGeometry, BoreExtentIsTheProjectedFrontRimsHalfWidthAndHalfHeight)
+{
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  struct Case
+  {
+    cv::Point3d centre;
+    double yaw_deg, pitch_deg;
+  };
+  for (const Case& k : {Case{{0.0, 0.06, 0.55}, 0.0, 0.0}, Case{{-0.12, 0.07, 0.57}, -40.0, 0.0},
+                        Case{{0.2, 0.05, 0.8}, 30.0, 2.0}, Case{{0.05, -0.1, 0.5}, 25.0, -25.0}})
+  {
+    SCOPED_TRACE(::testing::Message() << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg);
+    const cv::Vec3d axis = cv::normalize(cv::Vec3d(std::tan(k.yaw_deg * kDeg), std::tan(k.pitch_deg * kDeg), 1.0));
+    const cv::Vec3d u = cv::normalize(axis.cross(cv::Vec3d(0.0, 1.0, 0.0)));
+    const cv::Vec3d v = axis.cross(u);
+    double left = 1e9, right = -1e9, top = 1e9, bottom = -1e9;
+    for (int i = 0; i < 3600; ++i)
+    {
+      const double t = 2.0 * M_PI * i / 3600.0;
+      const cv::Vec3d p = cv::Vec3d(k.centre) + 0.018 * (std::cos(t) * u + std::sin(t) * v);
+      const double x = camera.cx + camera.fx * p[0] / p[2];
+      const double y = camera.cy + camera.fy * p[1] / p[2];
+      left = std::min(left, x);
+      right = std::max(right, x);
+      top = std::min(top, y);
+      bottom = std::max(bottom, y);
+    }
+    const cv::Size2d extent = g.boreExtent(k.centre, axis);
+    EXPECT_NEAR(extent.width, 0.5 * (right - left), 0.02);
+    EXPECT_NEAR(extent.height, 0.5 * (bottom - top), 0.02);
+  }
+  EXPECT_EQ(g.boreExtent({0.0, 0.0, -0.5}, {0.0, 0.0, 1.0}), cv::Size2d());
+  EXPECT_EQ(g.boreExtent({0.0, 0.0, 0.5}, {std::nan(""), 0.0, 1.0}), cv::Size2d());
+}
+
 TEST(SpoolGeometry, AnAxisThatWouldTakeThePullerIntoTheBoreWallIsNotAligned)
 {
   // Centred on the puller at 55 cm: a 0.5 deg tilt moves the bore's back end 1.7 mm (inside
