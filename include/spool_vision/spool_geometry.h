@@ -120,6 +120,16 @@ public:
   /// through the new hole centre at the same depth, the axis kept, and what measure() derives
   /// from the pose (yaw, reference, lateral offset, overlap, alignment) derived again.
   void moveBoreCentre(SpoolDetection& detection) const;
+  /// For a measured `detection` with a hole and no axis (measure() found no plausible pose:
+  /// rimPose() diverged from its ellipse, or the fits from it contradict Eq. 3.2): fitRimPose() on
+  /// `rim` (its flange rim's edge points, px, undistorted image) from Eq. 3.2's depth and the two
+  /// axes, turned about the vertical either way from the line of sight, that the ellipse's aspect
+  /// allows (a circle seen acos(r_horizontal / r_vertical) off its axis), each also from 4% nearer
+  /// and farther. The plausible fit most of the rim supports, if it keeps kMinAspectSupport of it,
+  /// is taken and what measure() derives from the pose derived again; false (untouched) where none.
+  bool measureFromAspect(SpoolDetection& detection, const std::vector<cv::Point2f>& rim) const;
+  /// measureFromAspect()'s least fraction of the rim within the fit's band
+  static constexpr double kMinAspectSupport = 0.5;
 
 private:
   /// No absurd pose (issue 28): the rim fits' depth within 15% of Eq. 3.2's (`eq32_depth`, m, on

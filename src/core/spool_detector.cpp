@@ -320,10 +320,13 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     bore_agrees_at_own_size_ =
         boreAgreesAtOwnSize(result, result.axis) &&
         (!cutByBorder(result.flange) || result.hole.score >= params_.matcher.cut_flange_hole_score);
-  // What is reported of an oblique bore is measured at the size its rim's pose gives it too (the
-  // checks above keep the size its flange's ellipse gives, which they were set on).
-  if (off_axis_bore)
-    remeasureBore(geometry, axis, true, result);
+  // What is reported of an oblique spool is measured again, now that nothing is judged on it: a
+  // pose its ellipse could not give is fitted on its rim from the axes the ellipse's aspect
+  // allows, and its bore at the size its rim's pose gives it too (the checks above keep the size
+  // its flange's ellipse gives, which they were set on).
+  if (off_axis_bore ||
+      (whole_frame && !along_rim && !inner_ring && geometry.measureFromAspect(result, rim_) && offAxis(result.axis)))
+    remeasureBore(geometry, result.axis, true, result);
   toFramePixels(geometry.camera(), result);
   bool outer_taken = false;
   // Whatever is reported now is no longer the spool about that bore.

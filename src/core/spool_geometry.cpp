@@ -101,13 +101,19 @@ int addRimNormalEquations(const std::vector<cv::Point2f>& rim, std::size_t strid
   return used;
 }
 
+// Every how many of `points` rim points fitRimPose() uses: at most ~400, the fit has three to five
+// unknowns, and its cost stays a fraction of the Hough's.
+std::size_t rimStride(std::size_t points)
+{
+  return std::max<std::size_t>(1, points / 400);
+}
+
 // fitRimPose() with N unknowns (3: the centre on the ray; 5: the ray's x and y too).
 template <int N>
 bool fitRim(const std::vector<cv::Point2f>& rim, const CameraIntrinsics& camera, double radius, Eigen::Vector3d& ray,
             Eigen::Vector3d& p, int* support)
 {
-  // At most ~400 points: the fit has three to five unknowns, and its cost stays a fraction of the Hough's.
-  const std::size_t stride = std::max<std::size_t>(1, rim.size() / 400);
+  const std::size_t stride = rimStride(rim.size());
   const double band = std::max(1.5, 0.01 * camera.fy * radius / p.x());
   constexpr int kIterations = 6;
   for (int iteration = 0; iteration < kIterations; ++iteration)
@@ -343,6 +349,43 @@ void SpoolGeometry::refineOnRim(const std::vector<cv::Point2f>& rim, SpoolDetect
   }
   d.position = position;
   d.axis = axis;
+}
+
+bool SpoolGeometry::measureFromAspect(SpoolDetection& d, const std::vector<cv::Point2f>& rim) const
+{
+  if (!d.detected || !d.hole_detected || rim.empty() || !(d.flange.r_horizontal > 0.0) || std::isfinite(d.axis[2]))
+    return false;
+  const cv::Point2d centre(d.hole.x, d.hole.y);
+  const double eq32_depth = depthFromDiameter(2.0 * d.flange.r_vertical);
+  const double line_of_sight = std::atan2((centre.x - camera_.cx) / camera_.fx, 1.0);
+  const double view = std::acos(std::clamp(d.flange.r_horizontal / d.flange.r_vertical, 0.0, 1.0));
+  // The fit's band (1.5 px, 1% of the radius; three times that at first) holds a start a few
+  // percent off in depth: such an ellipse is 3-6% tall or wide seen 30-40 deg off the axis.
+  constexpr double kDepthStarts[] = {1.0, 0.96, 1.04};
+  // A fit keeping under half the rim followed part of it (a frontal circle through a turned rim's
+  // near side keeps a tenth).
+  const std::size_t used = (rim.size() + rimStride(rim.size()) - 1) / rimStride(rim.size());
+  int best = static_cast<int>(kMinAspectSupport * static_cast<double>(used));
+  bool found = false;
+  for (const double side : {1.0, -1.0})
+    for (const double start : kDepthStarts)
+    {
+      cv::Point3d position = backProject(centre.x, centre.y, start * eq32_depth);
+      const double yaw = line_of_sight + side * view;
+      cv::Vec3d axis(std::sin(yaw), 0.0, std::cos(yaw));
+      int support = 0;
+      if (fitRimPose(rim, centre, position, axis, &support) && support > best &&
+          plausiblePose(position, axis, eq32_depth))
+      {
+        best = support;
+        found = true;
+        d.position = position;
+        d.axis = axis;
+      }
+    }
+  if (found)
+    measureFromPose(d);
+  return found;
 }
 
 void SpoolGeometry::measure(SpoolDetection& d, const std::vector<cv::Point2f>& rim) const

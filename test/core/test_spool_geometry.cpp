@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -430,6 +431,45 @@ TEST(SpoolGeometry, FitRimPoseUsesWhateverArcShows)
   cv::Point3d untouched(1, 2, 3);
   EXPECT_FALSE(g.fitRimPose(few, centre, untouched, axis));
   EXPECT_EQ(untouched, cv::Point3d(1, 2, 3));
+}
+
+// A rim seen 35 deg off its axis, turned either way, whose measured ellipse is 3% tall and gave no
+// plausible pose (axis NaN, depth from Eq. 3.2 3% short): fitted on the rim from the two axes the
+// ellipse's aspect allows, the pose is the rim's, whichever way it is turned.
+TEST(SpoolGeometry, APoseTheEllipseCouldNotGiveIsFittedOnTheRimFromItsAspect)
+{
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  const cv::Vec3d c(0.03, 0.06, 0.7);
+  for (const double turn : {35.0, -35.0})
+  {
+    SCOPED_TRACE(::testing::Message() << "turned " << turn << " deg");
+    const double yaw = std::atan2(c[0], c[2]) + turn * kDeg;
+    const cv::Vec3d n(std::sin(yaw), 0.0, std::cos(yaw));
+    std::vector<cv::Point2f> rim;
+    for (const cv::Point2d& q : projectedRim(camera, c, n, 1000))
+      rim.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+    SpoolDetection d;
+    d.detected = d.hole_detected = true;
+    d.flange = imagedRim(camera, c, n, 0.175);
+    const cv::RotatedRect box = cv::fitEllipse(rim);
+    d.flange.r_vertical *= 1.03;
+    d.flange.r_horizontal = 0.5 * 1.03 * std::min(box.size.width, box.size.height);
+    d.hole.x = camera.cx + camera.fx * c[0] / c[2];
+    d.hole.y = camera.cy + camera.fy * c[1] / c[2];
+    d.position = g.backProject(d.hole.x, d.hole.y, g.depthFromDiameter(2.0 * d.flange.r_vertical));
+    d.axis = cv::Vec3d(SpoolDetection::kNaN, SpoolDetection::kNaN, SpoolDetection::kNaN);
+    ASSERT_TRUE(g.measureFromAspect(d, rim));
+    EXPECT_NEAR(d.distance, c[2], 0.002 * c[2]);
+    EXPECT_NEAR(std::acos(std::clamp(d.axis.dot(n), -1.0, 1.0)) / kDeg, 0.0, 0.3);
+    EXPECT_NEAR(d.axis_angle, std::acos(n[2]), 0.3 * kDeg);
+    // Already posed, or without the rim: nothing to do.
+    const SpoolDetection posed = d;
+    EXPECT_FALSE(g.measureFromAspect(d, rim));
+    EXPECT_EQ(d.distance, posed.distance);
+    d.axis = cv::Vec3d(SpoolDetection::kNaN, SpoolDetection::kNaN, SpoolDetection::kNaN);
+    EXPECT_FALSE(g.measureFromAspect(d, {}));
+  }
 }
 
 TEST(SpoolGeometry, FitRimPoseFitsTheCentreTooWithinItsReach)
