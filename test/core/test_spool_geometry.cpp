@@ -166,12 +166,15 @@ TEST(SpoolGeometry, PullerLevelRowsBoundEveryHoleAtThePullersLevel)
     spool_vision::Circle flange;
     flange.x = 79.5;
     flange.r = flange.r_vertical = 200 * 0.175 / depth;
-    for (double v = -50.0; v <= 170.0; v += 0.5)
+    for (int row = -100; row <= 340; ++row)  // v from -50 to 170 px in half pixels
+    {
+      const double v = 0.5 * row;
       if (g.atPullerLevel(flange, v))
       {
         EXPECT_GE(v, top - 1e-6) << depth;
         EXPECT_LE(v, bottom + 1e-6) << depth;
       }
+    }
   }
   // The bounds themselves are reached: at the nearest depth, just inside each.
   spool_vision::Circle nearest;

@@ -68,6 +68,32 @@ void expectSlotTargetDetected(SpoolDetector& detector, const RenderedFrame& fram
   EXPECT_NEAR(d.distance, frame.truth.distance, tolerance * frame.truth.distance);
 }
 
+// `d`'s hole is `frame`'s bore's front rim within the evaluation's tolerance (holeTolerance()).
+void expectHoleOnFrontRim(const RenderedFrame& frame, const SpoolDetector& detector, const SpoolDetection& d)
+{
+  ASSERT_TRUE(frame.truth.hole);
+  EXPECT_TRUE(spool_vision::holeMatches(*frame.truth.hole, d.hole, spool_vision::holeTolerance(detector.camera())))
+      << "hole (" << d.hole.x << ", " << d.hole.y << ") r " << d.hole.r << ", front rim (" << frame.truth.hole->x
+      << ", " << frame.truth.hole->y << ") r " << frame.truth.hole->r;
+}
+
+// Frame `index` of `count` of the oblique set from `seed` at `width` columns (720 rows at 1280,
+// else 4:3), set up for `detector`; the target is the slot's spool and its bore's front rim is in
+// the truth.
+RenderedFrame renderObliqueTarget(int seed, int index, int count, int width, SpoolDetector& detector)
+{
+  RenderedFrame frame =
+      renderSetFrame(FrameSet::kOblique, seed, index, count, width, detector, width == 1280 ? 720 : 0);
+  const auto target = spool_vision::targetSpool(frame.truth);
+  EXPECT_TRUE(target && target->in_slot && frame.truth.hole);
+  return frame;
+}
+
+std::string obliqueTrace(int seed, int index, int width)
+{
+  return "oblique seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width);
+}
+
 // Frame `index` of 200 of `set` from `seed` at `width` columns: the slot's spool is the target,
 // found, its depth within 2%.
 void expectTargetFound(FrameSet set, int seed, int index, int width)
@@ -458,9 +484,7 @@ TEST(FailureKinds, AnObliqueBoresLitWallIsOnTheSideItsAxisGives)
     ASSERT_TRUE(frame.truth.hole);
     const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
     ASSERT_TRUE(d.detected && d.hole_detected);
-    EXPECT_TRUE(spool_vision::holeMatches(*frame.truth.hole, d.hole, spool_vision::holeTolerance(detector.camera())))
-        << "hole (" << d.hole.x << ", " << d.hole.y << ") r " << d.hole.r << ", front rim (" << frame.truth.hole->x
-        << ", " << frame.truth.hole->y << ") r " << frame.truth.hole->r;
+    expectHoleOnFrontRim(frame, detector, d);
   }
 }
 
@@ -474,19 +498,13 @@ TEST(FailureKinds, AnObliqueBoreIsMeasuredAtTheSizeItsRimsPoseGivesIt)
   for (const auto& [seed, index, count, width] : {std::tuple{19, 12, 100, 640}, std::tuple{89, 99, 100, 640},
                                                   std::tuple{131, 115, 150, 640}, std::tuple{47, 19, 50, 1280}})
   {
-    SCOPED_TRACE("oblique seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " +
-                 std::to_string(width));
+    SCOPED_TRACE(obliqueTrace(seed, index, width));
     SpoolDetector detector;
-    const RenderedFrame frame =
-        renderSetFrame(FrameSet::kOblique, seed, index, count, width, detector, width == 1280 ? 720 : 0);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot && frame.truth.hole);
+    const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
     const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
     ASSERT_TRUE(d.detected && d.hole_detected);
-    ASSERT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
-    EXPECT_TRUE(spool_vision::holeMatches(*frame.truth.hole, d.hole, spool_vision::holeTolerance(detector.camera())))
-        << "hole (" << d.hole.x << ", " << d.hole.y << ") r " << d.hole.r << ", front rim (" << frame.truth.hole->x
-        << ", " << frame.truth.hole->y << ") r " << frame.truth.hole->r;
+    ASSERT_TRUE(spool_vision::flangeMatches(spool_vision::targetSpool(frame.truth)->flange, d.flange));
+    expectHoleOnFrontRim(frame, detector, d);
   }
 }
 
@@ -500,11 +518,9 @@ TEST(FailureKinds, AnObliqueRimsPoseIsFittedFromItsAspectWhereItsEllipseGaveNone
   for (const auto& [seed, index, count, width] : {std::tuple{97, 18, 100, 640}, std::tuple{43, 79, 100, 640},
                                                   std::tuple{131, 42, 60, 1280}, std::tuple{97, 82, 100, 320}})
   {
-    SCOPED_TRACE("oblique seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " +
-                 std::to_string(width));
+    SCOPED_TRACE(obliqueTrace(seed, index, width));
     SpoolDetector detector;
-    const RenderedFrame frame =
-        renderSetFrame(FrameSet::kOblique, seed, index, count, width, detector, width == 1280 ? 720 : 0);
+    const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
     expectSlotTargetDetected(detector, frame, 0.01);
     const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
     ASSERT_TRUE(std::isfinite(d.axis[2]));
@@ -635,20 +651,15 @@ TEST(FailureKinds, ADarkBoreInAnOvalFlangeIsMeasuredAsAnOval)
   for (const auto& [seed, index, count, width] :
        {std::tuple{7, 74, 100, 640}, std::tuple{19, 1, 100, 640}, std::tuple{19, 31, 50, 1280}})
   {
-    SCOPED_TRACE("oblique seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " +
-                 std::to_string(width));
+    SCOPED_TRACE(obliqueTrace(seed, index, width));
     SpoolDetector detector;
-    const RenderedFrame frame =
-        renderSetFrame(FrameSet::kOblique, seed, index, count, width, detector, width == 1280 ? 720 : 0);
-    const auto target = spool_vision::targetSpool(frame.truth);
-    ASSERT_TRUE(target && target->in_slot && frame.truth.hole && !frame.truth.bore_visible);
+    const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
+    ASSERT_FALSE(frame.truth.bore_visible);
     const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
     ASSERT_TRUE(d.detected && d.hole_detected);
-    ASSERT_TRUE(spool_vision::flangeMatches(target->flange, d.flange));
+    ASSERT_TRUE(spool_vision::flangeMatches(spool_vision::targetSpool(frame.truth)->flange, d.flange));
     EXPECT_LT(d.hole.r_horizontal, SpoolDetector::kNearAxisAspect * d.hole.r_vertical);
-    EXPECT_TRUE(spool_vision::holeMatches(*frame.truth.hole, d.hole, spool_vision::holeTolerance(detector.camera())))
-        << "hole (" << d.hole.x << ", " << d.hole.y << ") r " << d.hole.r << ", truth (" << frame.truth.hole->x << ", "
-        << frame.truth.hole->y << ") r " << frame.truth.hole->r;
+    expectHoleOnFrontRim(frame, detector, d);
   }
 }
 
@@ -703,8 +714,7 @@ TEST(FailureKinds, AWeakOutlineLargerThanItsBoreAllowsWithNoFrontRimIsNoSpool)
   for (const auto& [seed, index, width] :
        {std::tuple{89, 72, 640}, std::tuple{89, 90, 640}, std::tuple{43, 7, 320}, std::tuple{43, 7, 640}})
   {
-    SCOPED_TRACE("oblique seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " +
-                 std::to_string(width));
+    SCOPED_TRACE(obliqueTrace(seed, index, width));
     SpoolDetector detector;
     const RenderedFrame frame = renderSetFrame(FrameSet::kOblique, seed, index, 100, width, detector);
     const auto target = spool_vision::targetSpool(frame.truth);
