@@ -108,6 +108,13 @@ std::size_t rimStride(std::size_t points)
   return std::max<std::size_t>(1, points / 400);
 }
 
+// How many of `points` rim points fitRimPose() uses (its `support` counts among these).
+std::size_t rimPointsUsed(std::size_t points)
+{
+  const std::size_t stride = rimStride(points);
+  return (points + stride - 1) / stride;
+}
+
 // fitRimPose() with N unknowns (3: the centre on the ray; 5: the ray's x and y too).
 template <int N>
 bool fitRim(const std::vector<cv::Point2f>& rim, const CameraIntrinsics& camera, double radius, Eigen::Vector3d& ray,
@@ -357,15 +364,14 @@ bool SpoolGeometry::measureFromAspect(SpoolDetection& d, const std::vector<cv::P
     return false;
   const cv::Point2d centre(d.hole.x, d.hole.y);
   const double eq32_depth = depthFromDiameter(2.0 * d.flange.r_vertical);
-  const double line_of_sight = std::atan2((centre.x - camera_.cx) / camera_.fx, 1.0);
+  const double line_of_sight = std::atan((centre.x - camera_.cx) / camera_.fx);
   const double view = std::acos(std::clamp(d.flange.r_horizontal / d.flange.r_vertical, 0.0, 1.0));
   // The fit's band (1.5 px, 1% of the radius; three times that at first) holds a start a few
   // percent off in depth: such an ellipse is 3-6% tall or wide seen 30-40 deg off the axis.
   constexpr double kDepthStarts[] = {1.0, 0.96, 1.04};
   // A fit keeping under half the rim followed part of it (a frontal circle through a turned rim's
   // near side keeps a tenth).
-  const std::size_t used = (rim.size() + rimStride(rim.size()) - 1) / rimStride(rim.size());
-  int best = static_cast<int>(kMinAspectSupport * static_cast<double>(used));
+  int best = static_cast<int>(kMinAspectSupport * static_cast<double>(rimPointsUsed(rim.size())));
   bool found = false;
   for (const double side : {1.0, -1.0})
     for (const double start : kDepthStarts)
