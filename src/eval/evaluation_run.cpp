@@ -274,6 +274,8 @@ int FrameCounts::of(FrameSet set) const
       return oblique;
     case FrameSet::kPacked:
       return packed;
+    case FrameSet::kPackedOblique:
+      return packed_oblique;
     case FrameSet::kApproach:
     case FrameSet::kApproachHard:
       break;

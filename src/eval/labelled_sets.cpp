@@ -12,14 +12,15 @@ namespace
 {
 constexpr double kDeg = M_PI / 180.0;
 
-constexpr std::array<std::pair<FrameSet, const char*>, 8> kSetNames = {{{FrameSet::kMain, "main"},
+constexpr std::array<std::pair<FrameSet, const char*>, 9> kSetNames = {{{FrameSet::kMain, "main"},
                                                                         {FrameSet::kApproach, "approach"},
                                                                         {FrameSet::kNegatives, "negatives"},
                                                                         {FrameSet::kHard, "hard"},
                                                                         {FrameSet::kDistorted, "distorted"},
                                                                         {FrameSet::kApproachHard, "approach_hard"},
                                                                         {FrameSet::kOblique, "oblique"},
-                                                                        {FrameSet::kPacked, "packed"}}};
+                                                                        {FrameSet::kPacked, "packed"},
+                                                                        {FrameSet::kPackedOblique, "packed_oblique"}}};
 
 std::uint64_t frameSeed(std::uint64_t seed, int index)
 {
@@ -43,9 +44,10 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   SceneKind kind = SceneKind::kSpool;
   if (set == FrameSet::kNegatives || rng.uniform(0.0, 1.0) < 0.15)
     kind = randomNegative(rng);
-  const bool hard = set == FrameSet::kHard || set == FrameSet::kOblique || set == FrameSet::kPacked;
+  const bool oblique = set == FrameSet::kOblique || set == FrameSet::kPackedOblique;
+  const bool hard = set == FrameSet::kHard || set == FrameSet::kPacked || oblique;
   scene = hard ? randomHardScene(kind, seed) : randomScene(kind, seed);
-  if (set == FrameSet::kPacked)
+  if (set == FrameSet::kPacked || set == FrameSet::kPackedOblique)
     packShelf(seed, scene);
   // Drawn last to first: the order in which the compiler evaluated these as call arguments
   // when the main set was first rendered, which keeps the main set's frames as they were.
@@ -55,7 +57,7 @@ void randomFrame(FrameSet set, std::uint64_t set_seed, int index, SceneParams& s
   const double bearing = rng.uniform(-20.0, 20.0) * kDeg;
   const double distance = rng.uniform(0.5, 1.1);
   pose = bearingPose(distance, bearing, heading, height, pitch);
-  if (set == FrameSet::kOblique)
+  if (oblique)
   {
     // The camera beside the slot: the line of sight 25-40 deg off the spool axis, either side
     // (bearingPose: the view off the axis is bearing + heading). Drawn after main's draws.
@@ -194,7 +196,8 @@ CameraIntrinsics setCamera(FrameSet set, cv::Size size, double focal)
   CameraIntrinsics camera = CameraIntrinsics::thesisDefault(size.width, size.height);
   if (focal > 0.0)
     camera.fx = camera.fy = focal;
-  if (set == FrameSet::kHard || set == FrameSet::kApproachHard || set == FrameSet::kOblique || set == FrameSet::kPacked)
+  if (set == FrameSet::kHard || set == FrameSet::kApproachHard || set == FrameSet::kOblique ||
+      set == FrameSet::kPacked || set == FrameSet::kPackedOblique)
   {
     camera.cx += 0.015 * size.width;
     camera.cy -= 0.012 * size.height;

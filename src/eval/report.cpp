@@ -534,6 +534,7 @@ std::string introSection(const EvaluationResult& result)
         {setup.name, std::to_string(setup.counts.main), std::to_string(setup.counts.negatives),
          std::to_string(setup.counts.hard), std::to_string(setup.counts.distorted),
          std::to_string(setup.counts.oblique), std::to_string(setup.counts.packed),
+         std::to_string(setup.counts.packed_oblique),
          toleranceText(holeTolerance(CameraIntrinsics::thesisDefault(setup.size.width, setup.size.height))),
          setup.analyses ? "yes" : "no"});
   md << "# spool_vision evaluation\n\n"
@@ -541,16 +542,18 @@ std::string introSection(const EvaluationResult& result)
      << config.seed << ": the main set (as `spool_render --set main`: spools at 50-110 cm and ±20° bearing, all "
      << "four lamp conditions, neighbours, about 15% negatives), the negatives set (empty slots, plates, tape "
      << "rolls, cans), the hard set (real-webcam effects, DESIGN.md §7), the distorted set (a C270-like lens, "
-     << "below), the oblique set (the hard set's scenes seen 25-40° off the spool axis) and the packed set (the "
+     << "below), the oblique set (the hard set's scenes seen 25-40° off the spool axis), the packed set (the "
      << "hard set's frames on a packed shelf: 1-3 neighbours each side, touching on half the scenes, a back row "
-     << "seen through the gaps on seven in ten, which is never the target). Each set is rendered once per size and "
-     << "shared by the setups of that size; the same seed gives the same scenes at every size, and a setup with "
+     << "seen through the gaps on seven in ten, which is never the target) and the packed_oblique set (the oblique "
+     << "set's scenes on that shelf: neighbours seen 25-40° off their axes overlap the target's flanges). Each "
+     << "set is rendered once per size and shared by the setups of that size; the same seed gives the same scenes at "
+        "every size, and a setup with "
      << "fewer frames takes the first ones. Controlled poses use " << config.pose_repeats
      << " scene(s) per pose, without neighbours, all lamps on. Times are the detector's own "
      << "(`SpoolDetection::time_ms`), one OpenCV thread, on the machine that ran this (shared machines make them "
      << "noisy).\n\n"
      << markdownTable({"setup", "main frames", "negatives frames", "hard frames", "distorted frames", "oblique frames",
-                       "packed frames", "hole tolerance (front rim)", "thesis analyses"},
+                       "packed frames", "packed_oblique frames", "hole tolerance (front rim)", "thesis analyses"},
                       counts)
      << "\n";
 

@@ -29,9 +29,8 @@ namespace
 {
 const char* const kUsage =
     "usage: spool_eval --out DIR [--count N] [--negatives N] [--hard N] [--distorted N]\n"
-    "                  [--oblique N] [--packed N] [--sizes WxH,...] [--repeats N] [--seed S] [--quick] [--config-dir "
-    "DIR]\n"
-    "                  [--approaches N] [--require-bars] [--no-charts]\n"
+    "                  [--oblique N] [--packed N] [--packed-oblique N] [--sizes WxH,...] [--repeats N] [--seed S]\n"
+    "                  [--quick] [--config-dir DIR] [--approaches N] [--require-bars] [--no-charts]\n"
     "  --out DIR         report folder: report.md, charts.json and the PNG charts (created)\n"
     "  --count N         main-set frames per setup (default 400, --quick 60)\n"
     "  --negatives N     negatives-set frames per setup (default half of --count)\n"
@@ -39,6 +38,7 @@ const char* const kUsage =
     "  --distorted N     distorted-set frames per setup (default --count)\n"
     "  --oblique N       oblique-set frames per setup (default half of --count)\n"
     "  --packed N        packed-set frames per setup (default half of --count)\n"
+    "  --packed-oblique N  packed_oblique-set frames per setup (default half of --count)\n"
     "  --sizes LIST      default.yaml's frame sizes (default 160x120,320x240,640x480; 1280x720 is\n"
     "                    slow). Sizes other than 160x120 and 640x480 get half the counts, above\n"
     "                    640x480 a quarter\n"
@@ -52,8 +52,9 @@ const char* const kUsage =
     "  --no-charts       write charts.json but draw no PNG (scripts/plot_charts.py draws them later)\n"
     "Setups: seed.yaml at 160x120 (the thesis) and default.yaml at each size, each scored on the\n"
     "main + negatives sets, on the hard set, on the distorted set (a C270-like lens) and on the\n"
-    "oblique set (the hard set's scenes 25-40 deg off the spool axis) and on the packed set (the\n"
-    "hard set's frames on a packed shelf: touching neighbours, a back row). The headline\n"
+    "oblique set (the hard set's scenes 25-40 deg off the spool axis), on the packed set (the\n"
+    "hard set's frames on a packed shelf: touching neighbours, a back row) and on the\n"
+    "packed_oblique set (the oblique set's scenes on that shelf). The headline\n"
     "and pose tables go to stdout, progress and the frame counts to stderr. Exit: 0 ran, 1 failed,\n"
     "2 bad option or config, 3 bar failed.\n";
 
@@ -96,10 +97,11 @@ std::vector<cv::Size> parseSizes(const std::string& text)
 
 Options parseOptions(int argc, char** argv)
 {
-  const sv::cli::CommandLine line(argc, argv,
-                                  {"--out", "--count", "--negatives", "--hard", "--distorted", "--oblique", "--packed",
-                                   "--sizes", "--repeats", "--seed", "--config-dir", "--approaches"},
-                                  kUsage, false, {"--quick", "--require-bars", "--no-charts"});
+  const sv::cli::CommandLine line(
+      argc, argv,
+      {"--out", "--count", "--negatives", "--hard", "--distorted", "--oblique", "--packed", "--packed-oblique",
+       "--sizes", "--repeats", "--seed", "--config-dir", "--approaches"},
+      kUsage, false, {"--quick", "--require-bars", "--no-charts"});
   Options o;
   o.out = line.text("--out");
   o.quick = line.has("--quick");
@@ -112,7 +114,8 @@ Options parseOptions(int argc, char** argv)
               line.positiveInteger("--hard", 100000, std::max(1, main_frames / 2)),
               line.positiveInteger("--distorted", 100000, main_frames),
               line.positiveInteger("--oblique", 100000, std::max(1, main_frames / 2)),
-              line.positiveInteger("--packed", 100000, std::max(1, main_frames / 2))};
+              line.positiveInteger("--packed", 100000, std::max(1, main_frames / 2)),
+              line.positiveInteger("--packed-oblique", 100000, std::max(1, main_frames / 2))};
   o.sizes = parseSizes(line.text("--sizes", "160x120,320x240,640x480"));
   o.repeats = line.positiveInteger("--repeats", 100, 0);
   o.approaches = line.nonNegativeInteger("--approaches", 1000, o.quick ? 2 : 4);
@@ -152,8 +155,9 @@ sv::FrameCounts countsAt(const Options& o, cv::Size size)
 {
   const int divisor = size == cv::Size(160, 120) || size == cv::Size(640, 480) ? 1 : size.area() <= 640 * 480 ? 2 : 4;
   const sv::FrameCounts& c = o.counts;
-  return {std::max(1, c.main / divisor),      std::max(1, c.negatives / divisor), std::max(1, c.hard / divisor),
-          std::max(1, c.distorted / divisor), std::max(1, c.oblique / divisor),   std::max(1, c.packed / divisor)};
+  return {std::max(1, c.main / divisor),          std::max(1, c.negatives / divisor), std::max(1, c.hard / divisor),
+          std::max(1, c.distorted / divisor),     std::max(1, c.oblique / divisor),   std::max(1, c.packed / divisor),
+          std::max(1, c.packed_oblique / divisor)};
 }
 
 // Draws the report's charts: scripts/plot_charts.py (matplotlib) on `charts` (charts.json).
@@ -194,11 +198,12 @@ int run(int argc, char** argv)
   config.seed = options.seed;
   config.pose_repeats = options.repeats;
   config.approaches = options.approaches;
-  std::cerr << "spool_eval: frames per setup (main / negatives / hard / distorted / oblique / packed):";
+  std::cerr
+      << "spool_eval: frames per setup (main / negatives / hard / distorted / oblique / packed / packed_oblique):";
   for (const sv::Setup& setup : config.setups)
     std::cerr << " " << setup.name << " " << setup.counts.main << "/" << setup.counts.negatives << "/"
               << setup.counts.hard << "/" << setup.counts.distorted << "/" << setup.counts.oblique << "/"
-              << setup.counts.packed << ";";
+              << setup.counts.packed << "/" << setup.counts.packed_oblique << ";";
   std::cerr << "\n";
   std::filesystem::create_directories(options.out);  // fail before the run, not after it
   cv::setNumThreads(1);                              // the speed bars are per core

@@ -26,13 +26,14 @@ namespace
 {
 const char* const kUsage =
     "usage: spool_render --out DIR --width W --height H [--focal F] [--distortion D] [--count N]\n"
-    "                    [--seed S] [--set main|approach|negatives|hard|distorted|approach_hard|oblique|packed]\n"
+    "                    [--seed S] [--set main|approach|negatives|hard|distorted|approach_hard|oblique|packed|\n"
+    "                          packed_oblique]\n"
     "  --focal F   focal length in px (default: the thesis camera, 200 px at 120 rows)\n"
     "  --distortion D  lens distortion, OpenCV/ROS order: k1,k2,p1,p2[,k3] (plumb_bob) or\n"
     "              k1,k2,p1,p2,k3,k4,k5,k6 (rational_polynomial); default: the set's lens\n"
     "              (none; distorted: -0.2,0.05,0.001,-0.0005,0)\n"
-    "  --count N   frames (default: main, hard, distorted, oblique and packed 500, approach and approach_hard 40,\n"
-    "              negatives 100)\n"
+    "  --count N   frames (default: main, hard, distorted, oblique, packed and packed_oblique 500,\n"
+    "              approach and approach_hard 40, negatives 100)\n"
     "  --seed S    the set is a function of the seed (default 1)\n"
     "  --set       main: spools at 50-110 cm and +-20 deg bearing plus ~15% negatives;\n"
     "              approach: one spool from 110 cm to 50 cm, ending aligned;\n"
@@ -46,7 +47,9 @@ const char* const kUsage =
     "              turned 0.8-1.3 deg or 2.8-4 mm beside the bore axis: it would touch);\n"
     "              oblique: hard's scenes seen 25-40 deg off the spool axis, bearing +-15 deg;\n"
     "              packed: hard's frames on a packed shelf (1-3 neighbours each side, touching on\n"
-    "              half the scenes; a back row seen through the gaps on seven in ten)\n"
+    "              half the scenes; a back row seen through the gaps on seven in ten);\n"
+    "              packed_oblique: oblique's scenes on packed's shelf (touching neighbours seen\n"
+    "              25-40 deg off their axes overlap the target's flanges)\n"
     "Writes DIR/frame_%05d.png, DIR/frame_%05d.json and DIR/camera_info.yaml.\n";
 
 struct Options
@@ -99,8 +102,9 @@ Options parseOptions(int argc, char** argv)
   const std::optional<sv::FrameSet> set = sv::frameSetNamed(o.set);
   if (!set)
     throw UsageError(
-        "--set: expected main, approach, negatives, hard, distorted, approach_hard, oblique or packed, got '" + o.set +
-        "'");
+        "--set: expected main, approach, negatives, hard, distorted, approach_hard, oblique, packed or packed_oblique, "
+        "got '" +
+        o.set + "'");
   o.frame_set = *set;
   if (o.out.empty())
     throw UsageError("--out is required");

@@ -106,16 +106,16 @@ sv::DetectorParams config(const std::string& name)
 TEST(LabelledSets, EachSetHasOneNameThatReadsBack)
 {
   std::set<std::string> names;
-  for (sv::FrameSet set :
-       {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
-        sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard, sv::FrameSet::kOblique, sv::FrameSet::kPacked})
+  for (sv::FrameSet set : {sv::FrameSet::kMain, sv::FrameSet::kApproach, sv::FrameSet::kNegatives, sv::FrameSet::kHard,
+                           sv::FrameSet::kDistorted, sv::FrameSet::kApproachHard, sv::FrameSet::kOblique,
+                           sv::FrameSet::kPacked, sv::FrameSet::kPackedOblique})
   {
     const std::string name = sv::toString(set);
     names.insert(name);
     EXPECT_EQ(sv::frameSetNamed(name), set) << name;
   }
   EXPECT_EQ(names, (std::set<std::string>{"main", "approach", "negatives", "hard", "distorted", "approach_hard",
-                                          "oblique", "packed"}));
+                                          "oblique", "packed", "packed_oblique"}));
   EXPECT_FALSE(sv::frameSetNamed("Main").has_value());
   EXPECT_FALSE(sv::frameSetNamed("").has_value());
 }
@@ -148,6 +148,42 @@ TEST(LabelledSets, TheObliqueSetSeesItsSpools25To40DegreesOffTheirAxis)
   // Both sides.
   EXPECT_GT(left, 0);
   EXPECT_LT(left, spools);
+}
+
+// The oblique set's frames on packed's shelf: the same camera beside the same slot, the shelf
+// around it packed (1-3 neighbours each side), so that the target's neighbours are seen as far off
+// their axes as it is.
+TEST(LabelledSets, ThePackedObliqueSetIsTheObliqueSetsViewOfAPackedShelf)
+{
+  const sv::SpoolRenderer renderer(sv::setCamera(sv::FrameSet::kPackedOblique, {160, 120}));
+  int spools = 0;
+  for (int i = 0; i < 40; ++i)
+  {
+    sv::SceneParams oblique_scene;
+    sv::CameraPose oblique_pose;
+    sv::setFrame(sv::FrameSet::kOblique, 5, i, 40, oblique_scene, oblique_pose);
+    sv::SceneParams scene;
+    sv::CameraPose pose;
+    sv::setFrame(sv::FrameSet::kPackedOblique, 5, i, 40, scene, pose);
+    EXPECT_EQ(pose.distance, oblique_pose.distance) << i;
+    EXPECT_EQ(pose.yaw, oblique_pose.yaw) << i;
+    EXPECT_EQ(pose.lateral, oblique_pose.lateral) << i;
+    EXPECT_EQ(scene.kind, oblique_scene.kind) << i;
+    // packShelf: at least one neighbour on each side, at most 3.
+    const auto left = std::count_if(scene.neighbours.begin(), scene.neighbours.end(),
+                                    [](const sv::NeighbourSpool& n) { return n.side < 0; });
+    EXPECT_GE(left, 1) << i;
+    EXPECT_LE(left, 3) << i;
+    EXPECT_GE(static_cast<long>(scene.neighbours.size()) - left, 1) << i;
+    EXPECT_LE(static_cast<long>(scene.neighbours.size()) - left, 3) << i;
+    const sv::GroundTruth t = renderer.groundTruth(scene, pose);
+    if (t.kind != sv::SceneKind::kSpool)
+      continue;
+    ++spools;
+    EXPECT_GE(t.view_angle * 180.0 / M_PI, 24.0) << i;
+    EXPECT_LE(t.view_angle * 180.0 / M_PI, 41.0) << i;
+  }
+  EXPECT_GE(spools, 28);
 }
 
 TEST(Statistics, PercentilesInterpolateBetweenOrderStatisticsAndSkipNaN)
@@ -674,8 +710,8 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
   good.metrics.axis_angle_error_deg = {0.3, 0.9, 100, 100};
   good.metrics.unsafe_aligned = {0, 900};
   good.metrics.aligned_recall = {48, 50};
-  // main + negatives, hard, distorted, oblique, packed
-  const sv::SetupResult all_good{{good, good, good, good, good}, {}};
+  // main + negatives, hard, distorted, oblique, packed, packed oblique
+  const sv::SetupResult all_good{{good, good, good, good, good, good}, {}};
   r.setups = {all_good, all_good, all_good};
   auto reset = [&] { r.setups = {all_good, all_good, all_good}; };
   for (size_t s = 0; s < 3; ++s)
@@ -1043,14 +1079,14 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
                    {160, 120},
                    config("seed.yaml"),
                    sv::QualityBars::thesisReproduction(),
-                   {12, 6, 4, 6, 4, 4},
+                   {12, 6, 4, 6, 4, 4, 4},
                    true,
                    false},
                   {"default.yaml @ 160x120",
                    {160, 120},
                    config("default.yaml"),
                    sv::QualityBars::forDefault({160, 120}),
-                   {6, 3, 2, 3, 2, 2},
+                   {6, 3, 2, 3, 2, 2, 2},
                    false,
                    true}};
   small.pose_repeats = 1;
@@ -1059,7 +1095,8 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   const sv::EvaluationResult r = sv::runEvaluation(small, [&](const std::string&, int, int) { ++progress_calls; });
   EXPECT_GT(progress_calls, 18);
   ASSERT_EQ(r.setups.size(), 2u);
-  ASSERT_EQ(r.setups[0].per_group.size(), 5u);  // main + negatives, hard, distorted, oblique, packed
+  // main + negatives, hard, distorted, oblique, packed, packed oblique
+  ASSERT_EQ(r.setups[0].per_group.size(), 6u);
   EXPECT_EQ(r.setups[0].per_group[0].frames, 18);
   EXPECT_EQ(r.setups[0].per_group[0].metrics.time_ms.count, 18);
   EXPECT_EQ(r.setups[0].per_group[1].frames, 4);
@@ -1071,6 +1108,8 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   EXPECT_EQ(r.setups[1].per_group[3].frames, 2);
   EXPECT_EQ(r.setups[0].per_group[4].frames, 4);
   EXPECT_EQ(r.setups[1].per_group[4].frames, 2);
+  EXPECT_EQ(r.setups[0].per_group[5].frames, 4);
+  EXPECT_EQ(r.setups[1].per_group[5].frames, 2);
   EXPECT_TRUE(r.setups[0].approaches.empty());
   ASSERT_EQ(r.setups[1].approaches.size(), 1u);
   EXPECT_EQ(r.setups[1].approaches[0].frames, sv::EvaluationConfig::kApproachFrames);
@@ -1107,9 +1146,10 @@ TEST(Evaluation, TheReportHoldsEveryTableAndChart)
   std::stringstream md;
   md << in.rdbuf();
   for (const char* heading :
-       {"## Headline", "hard set", "packed (touching neighbours, a back row) set", "## Pose and alignment",
-        "distorted (C270 lens) set", "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter", "### Binarization",
-        "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r",
+       {"## Headline", "hard set", "packed (touching neighbours, a back row) set",
+        "packed oblique (a packed shelf 25-40 deg off the axis) set", "| packed_oblique frames |",
+        "## Pose and alignment", "distorted (C270 lens) set", "-0.2000, 0.0500, 0.0010, -0.0005, 0.0000", "### Filter",
+        "### Binarization", "### Morphology", "### CHT vs MCHT", "### Lamp", "### Distance", "### Yaw", "### tx_r",
         "## The tracker over whole approaches", "default.yaml @ 160x120 | 1001"})
     EXPECT_NE(md.str().find(heading), std::string::npos) << heading;
   // The charts' data: one chart per PNG the report shows, its points the tables' numbers.

@@ -251,7 +251,8 @@ TEST(SpoolRenderCli, BadOptionsExitTwoNamingTheOption)
       {out + " --width 0 --height 48", "--width: expected a positive number, got '0'"},
       {out + " --width 64 --height 48 --count 1.5", "--count: expected an integer in [1, 1000000], got '1.5'"},
       {out + " --width 64 --height 48 --set all",
-       "--set: expected main, approach, negatives, hard, distorted, approach_hard, oblique or packed, got 'all'"},
+       "--set: expected main, approach, negatives, hard, distorted, approach_hard, oblique, packed or packed_oblique, "
+       "got 'all'"},
       {out + " --width 64 --height 48 --distortion -0.2,0.05,0", "--distortion: expected 4, 5 (plumb_bob) or 8"},
       {out + " --width 64 --height 48 --distortion -0.2,x,0,0", "--distortion: 'x' is not a number"},
       {out + " --width 64 --height 48 --seed -1", "--seed: expected a non-negative integer, got '-1'"},

@@ -44,6 +44,11 @@ enum class FrameSet
   /// The hard set's frames on a packed shelf (packShelf): 1-3 neighbours each side, touching on
   /// half the scenes, and on seven in ten a back row seen through the gaps (never the target)
   kPacked,
+  /// The oblique set's scenes on a packed shelf (packShelf): the spools that touch or nearly touch
+  /// their neighbours seen 25-40 deg off their axes, so that a neighbour's flange overlaps the
+  /// target's ellipse and its back flange, and the back row shows through the gaps (the shelves of
+  /// heldout_v2 pos_013 and pos_073)
+  kPackedOblique,
 };
 
 /// The set's name, as spool_render's --set and the truth files' "set" write it ("main", ...).
@@ -348,12 +353,13 @@ struct QualityBars
 /// first frames of the largest count, the same frames for the same seed).
 struct FrameCounts
 {
-  int main = 400;       ///< main set
-  int negatives = 200;  ///< negatives set
-  int hard = 200;       ///< hard set
-  int distorted = 400;  ///< distorted set
-  int oblique = 200;    ///< oblique set
-  int packed = 200;     ///< packed set
+  int main = 400;            ///< main set
+  int negatives = 200;       ///< negatives set
+  int hard = 200;            ///< hard set
+  int distorted = 400;       ///< distorted set
+  int oblique = 200;         ///< oblique set
+  int packed = 200;          ///< packed set
+  int packed_oblique = 200;  ///< packed_oblique set
   int of(FrameSet set) const;
 };
 
@@ -382,11 +388,13 @@ struct SetGroup
 struct EvaluationConfig
 {
   std::vector<Setup> setups;
-  std::vector<SetGroup> groups = {{"main + negatives", {FrameSet::kMain, FrameSet::kNegatives}},
-                                  {"hard", {FrameSet::kHard}},
-                                  {"distorted (C270 lens)", {FrameSet::kDistorted}, true},
-                                  {"oblique (25-40 deg off the axis)", {FrameSet::kOblique}},
-                                  {"packed (touching neighbours, a back row)", {FrameSet::kPacked}}};
+  std::vector<SetGroup> groups = {
+      {"main + negatives", {FrameSet::kMain, FrameSet::kNegatives}},
+      {"hard", {FrameSet::kHard}},
+      {"distorted (C270 lens)", {FrameSet::kDistorted}, true},
+      {"oblique (25-40 deg off the axis)", {FrameSet::kOblique}},
+      {"packed (touching neighbours, a back row)", {FrameSet::kPacked}},
+      {"packed oblique (a packed shelf 25-40 deg off the axis)", {FrameSet::kPackedOblique}}};
   std::uint64_t seed = 1;
   int pose_repeats = 3;  ///< scenes per controlled pose (Fig. 4.16, Table 4.1, Fig. 4.17)
   /// approach_hard sequences per size followed by the tracker (seeds seed * 1000 + 1, + 2, ...),
