@@ -487,6 +487,39 @@ private:
   /// RimPoseSearch::kWidestViewAngle), where a bore's ellipse, as narrow as that cosine, votes as a
   /// circle. r and r_vertical are the rim's height, r_horizontal its width (undistorted px).
   void detectTurnedBores(const HoughSearch& hole_search, double axis_yaw);
+  /// How much a column `x` (undistorted px) is widened where a spool turned to `axis_yaw` is seen:
+  /// 1 / cos of the view there, the view at most RimPoseSearch::kWidestViewAngle.
+  double columnWidening(double x, double axis_yaw) const;
+  /// stretched_edges_: `edges` with each column widened by columnWidening() (stretched_columns_);
+  /// returns the stretched frame's size.
+  cv::Size stretchEdges(const std::vector<EdgePoint>& edges, double axis_yaw);
+  /// Column `x` and `window` (px) in the frame stretchEdges() made last.
+  double stretchedColumn(double x) const;
+  cv::Rect2d stretchedWindow(const cv::Rect2d& window) const;
+  /// Circles found in that stretched frame back in the frame: r and r_vertical their height,
+  /// r_horizontal their width there.
+  void unstretch(double axis_yaw, std::vector<Circle>& circles) const;
+  /// Where the centre of a spool nearer `reference` than `result` can be: within the result's
+  /// bore's distance of it, outside the result's flange on the reference's side, at the puller's
+  /// level rows (px, undistorted). Empty where there is no room.
+  cv::Rect2d nearerThan(const cv::Point2d& reference, const SpoolDetection& result) const;
+  /// Whole frame, after the result's pose is measured (its axis finite), where nearerTurnedSpool()
+  /// found no bore: a flange nearer the reference, turned farther from the camera than the
+  /// result, whose ellipse the circle search missed (a packed shelf seen 25-40 deg off its axes at
+  /// 160x120: the neighbour seen 10 deg off taken, the target beside it at 31 deg scoring under
+  /// min_score, its 3.4 px bore too small for its rim). The frame's edges stretched about the
+  /// result's axis (stretchEdges()) round the ellipses of the spools standing parallel to it; the
+  /// kTurnedFlanges circles found there nearer the reference (nearerThan()), of sizes within
+  /// kTurnedFlangeSizes of the result's, are searched about their centres at the depths about Eq.
+  /// 3.2's on their height (kTurnedNearest..kTurnedFarthest) with axes within kNeighbourAxisSpread
+  /// of the result's (RimPoseSearch::searchAbout), and the first whose rim keeps
+  /// kTurnedFlangeSupport of its samples at a plausible pose
+  /// (SpoolGeometry::plausiblePose), at the puller's level, with a dark disc where its bore's front
+  /// rim projects (bore_contrast), replaces `result` (undistorted px; the hole from the pose,
+  /// measured at its known size where it is large enough) and returns true. Only where a spool at
+  /// the reference column is seen kTurnedFlangeView or more off the result's axis.
+  bool nearerTurnedFlange(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                          const HoughSearch& flange_search, SpoolDetection& result);
   /// Whole frame, after the result's pose is measured: a spool nearer the `reference` than the
   /// result, seen farther off its axis than the circle search reaches. Spools on a shelf stand
   /// side by side with about parallel axes, so looking along a row the one nearest the puller can
@@ -632,6 +665,13 @@ private:
   /// 160x120 (8 px at most) it found no spool on the oblique sets of seeds 7 and 73 and cost 15%
   /// of the hard set's instructions.
   static constexpr double kTurnedBoreScale = 2.0;
+  /// nearerTurnedFlange()'s candidates, and the share of its rim's samples the 3-D fit must keep.
+  static constexpr int kTurnedFlanges = 2;
+  static constexpr double kTurnedFlangeSupport = 0.6;
+  static constexpr double kTurnedFlangeView = 20.0 * M_PI / 180.0;
+  static constexpr double kTurnedFlangeSizes = 1.5;
+  static constexpr double kTurnedNearest = 0.93;
+  static constexpr double kTurnedFarthest = 1.07;
   /// rad: how far a neighbour's axis may turn from the result's (20 deg: shelves do not keep
   /// spools square).
   static constexpr double kNeighbourAxisSpread = 20.0 * M_PI / 180.0;
@@ -700,7 +740,10 @@ private:
   std::vector<Circle> nearer_flanges_;
   std::vector<Circle> lenses_;
   std::vector<double> stretched_columns_;   ///< detectTurnedBores(): stretched x of each column's left edge
-  std::vector<EdgePoint> stretched_edges_;  ///< detectTurnedBores(): hole_edges_ stretched
+  std::vector<EdgePoint> stretched_edges_;  ///< stretchEdges(): edges stretched
+  std::vector<EdgePoint> near_edges_;       ///< nearerTurnedFlange(): the edges that can vote there
+  std::vector<Circle> turned_flanges_;      ///< nearerTurnedFlange(): the stretched frame's circles
+  RimPoseFit turned_rim_;                   ///< nearerTurnedFlange(): a candidate's rim
   /// The whole frame's search took its spool about a bore that, measured at the size the rim gives
   /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()), or the second search's
   /// spool's bore does so: takesSecondSearch() reads it.

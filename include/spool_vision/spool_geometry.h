@@ -130,12 +130,12 @@ public:
   bool measureFromAspect(SpoolDetection& detection, const std::vector<cv::Point2f>& rim) const;
   /// measureFromAspect()'s least fraction of the rim within the fit's band
   static constexpr double kMinAspectSupport = 0.5;
-
-private:
   /// No absurd pose (issue 28): the rim fits' depth within 15% of Eq. 3.2's (`eq32_depth`, m, on
   /// the rim's vertical semi-axis) and the axis within 40 deg of the line of sight (a rim seen
   /// further off was never taken as one); finite.
   static bool plausiblePose(const cv::Point3d& position, const cv::Vec3d& axis, double eq32_depth);
+
+private:
   /// measure()'s quantities that follow from the detection's position and axis.
   void measureFromPose(SpoolDetection& d) const;
 

@@ -287,6 +287,9 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     takeObliqueRim();
     geometry.measure(result, rim_);
   }
+  else if (whole_frame && !along_rim && result.hole_detected &&
+           nearerTurnedFlange(image, format, reference, flange_search, result))
+    geometry.measure(result, rim_);
   const bool outline_refused =
       whole_frame && !along_rim && result.hole_detected && !frontRimAboutOwnBore(image, format, geometry, result);
   // A rib ring taken as the flange says so by its bore, measured at the bore's own size (seen far
@@ -947,52 +950,70 @@ Circle SpoolDetector::rimSeenAt(const RimPoseFit& fit) const
   return rim;
 }
 
+double SpoolDetector::columnWidening(double x, double axis_yaw) const
+{
+  const CameraIntrinsics& camera = geometry_->camera();
+  const double view = std::atan((x - camera.cx) / camera.fx) - axis_yaw;
+  return 1.0 / std::max(std::cos(view), std::cos(RimPoseSearch::kWidestViewAngle));
+}
+
+double SpoolDetector::stretchedColumn(double x) const
+{
+  const int cols = static_cast<int>(stretched_columns_.size()) - 1;
+  const double inside = std::clamp(x, 0.0, cols - 1e-6);
+  const int i = static_cast<int>(inside);
+  return stretched_columns_[i] + (inside - i) * (stretched_columns_[i + 1] - stretched_columns_[i]) + (x - inside);
+}
+
+cv::Size SpoolDetector::stretchEdges(const std::vector<EdgePoint>& edges, double axis_yaw)
+{
+  const int cols = preprocessed_.cols;
+  stretched_columns_.resize(static_cast<std::size_t>(cols) + 1);
+  stretched_columns_[0] = 0.0;
+  for (int x = 0; x < cols; ++x)
+    stretched_columns_[x + 1] = stretched_columns_[x] + columnWidening(x + 0.5, axis_yaw);
+  stretched_edges_.clear();
+  for (const EdgePoint& e : edges)
+  {
+    const double dx = e.dx / columnWidening(e.x, axis_yaw);
+    const double norm = std::hypot(dx, static_cast<double>(e.dy));
+    if (norm > 0.0)
+      stretched_edges_.push_back({static_cast<float>(stretchedColumn(e.x)), e.y, static_cast<float>(dx / norm),
+                                  static_cast<float>(e.dy / norm)});
+  }
+  return {static_cast<int>(std::ceil(stretched_columns_[cols])), preprocessed_.rows};
+}
+
+cv::Rect2d SpoolDetector::stretchedWindow(const cv::Rect2d& window) const
+{
+  const double left = stretchedColumn(window.x);
+  return {left, window.y, stretchedColumn(window.br().x) - left, window.height};
+}
+
+void SpoolDetector::unstretch(double axis_yaw, std::vector<Circle>& circles) const
+{
+  const int cols = static_cast<int>(stretched_columns_.size()) - 1;
+  for (Circle& c : circles)
+  {
+    const auto column = std::upper_bound(stretched_columns_.begin(), stretched_columns_.end(), c.x);
+    const int i = std::clamp(static_cast<int>(column - stretched_columns_.begin()) - 1, 0, cols - 1);
+    c.x = i + (c.x - stretched_columns_[i]) / (stretched_columns_[i + 1] - stretched_columns_[i]);
+    c.r_vertical = c.r_vertical > 0.0 ? c.r_vertical : c.r;
+    c.r_horizontal = (c.r_horizontal > 0.0 ? c.r_horizontal : c.r) / columnWidening(c.x, axis_yaw);
+    c.r = c.r_vertical;
+  }
+}
+
 void SpoolDetector::detectTurnedBores(const HoughSearch& hole_search, double axis_yaw)
 {
   // Seen far off its axis a bore is an ellipse as narrow as the cosine of the view. The columns
   // are stretched by its inverse, the view at each column taken about `axis_yaw`, so that the bore
   // votes as a circle there.
-  const CameraIntrinsics& camera = geometry_->camera();
-  const int cols = preprocessed_.cols;
-  auto widening = [&](double x)
-  {
-    const double view = std::atan((x - camera.cx) / camera.fx) - axis_yaw;
-    return 1.0 / std::max(std::cos(view), std::cos(RimPoseSearch::kWidestViewAngle));
-  };
-  stretched_columns_.resize(static_cast<std::size_t>(cols) + 1);
-  stretched_columns_[0] = 0.0;
-  for (int x = 0; x < cols; ++x)
-    stretched_columns_[x + 1] = stretched_columns_[x] + widening(x + 0.5);
-  auto stretched = [&](double x)
-  {
-    const double inside = std::clamp(x, 0.0, cols - 1e-6);
-    const int i = static_cast<int>(inside);
-    return stretched_columns_[i] + (inside - i) * (stretched_columns_[i + 1] - stretched_columns_[i]) + (x - inside);
-  };
-  stretched_edges_.clear();
-  for (const EdgePoint& e : hole_edges_)
-  {
-    const double dx = e.dx / widening(e.x);
-    const double norm = std::hypot(dx, static_cast<double>(e.dy));
-    if (norm > 0.0)
-      stretched_edges_.push_back(
-          {static_cast<float>(stretched(e.x)), e.y, static_cast<float>(dx / norm), static_cast<float>(e.dy / norm)});
-  }
+  const cv::Size size = stretchEdges(hole_edges_, axis_yaw);
   HoughSearch search = hole_search;
-  search.center_window.x = stretched(hole_search.center_window.x);
-  search.center_window.width = stretched(hole_search.center_window.br().x) - search.center_window.x;
-  hole_hough_.detect(stretched_edges_,
-                     cv::Size(static_cast<int>(std::ceil(stretched_columns_[cols])), preprocessed_.rows), search,
-                     holes_);
-  for (Circle& hole : holes_)
-  {
-    const auto column = std::upper_bound(stretched_columns_.begin(), stretched_columns_.end(), hole.x);
-    const int i = std::clamp(static_cast<int>(column - stretched_columns_.begin()) - 1, 0, cols - 1);
-    hole.x = i + (hole.x - stretched_columns_[i]) / (stretched_columns_[i + 1] - stretched_columns_[i]);
-    hole.r_vertical = hole.r_vertical > 0.0 ? hole.r_vertical : hole.r;
-    hole.r_horizontal = (hole.r_horizontal > 0.0 ? hole.r_horizontal : hole.r) / widening(hole.x);
-    hole.r = hole.r_vertical;
-  }
+  search.center_window = stretchedWindow(hole_search.center_window);
+  hole_hough_.detect(stretched_edges_, size, search, holes_);
+  unstretch(axis_yaw, holes_);
 }
 
 bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
@@ -1018,21 +1039,12 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
       axis_yaws = {sight - view, sight + view}, axes = 2;
   }
   // The bores nearer the reference than the result's, at the puller's level and at sizes whose rim
-  // can be measured. Such a bore lies outside the result's flange, on the reference's side of it.
+  // can be measured.
   const double bound = std::hypot(result.hole.x - reference.x, result.hole.y - reference.y);
-  const auto [top, bottom] = geometry_->pullerLevelRows();
-  const double half_width = taken.r_horizontal > 0.0 ? taken.r_horizontal : taken.r;
-  double left = reference.x - bound;
-  double right = reference.x + bound;
-  if (taken.x > reference.x)
-    right = std::min(right, taken.x - half_width);
-  else
-    left = std::max(left, taken.x + half_width);
   HoughSearch holes = hole_search;
   holes.r_min = std::max(hole_search.r_min, kMinKnownSizeRadius);
-  holes.center_window =
-      cv::Rect2d(left, top, right - left, bottom - top) & cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
-  if (axes == 0 || holes.r_min >= holes.r_max || !(right > left) || holes.center_window.empty())
+  holes.center_window = nearerThan(reference, result);
+  if (axes == 0 || holes.r_min >= holes.r_max || holes.center_window.empty())
     return false;
   std::swap(holes_, target_holes_);
   const cv::Point2d flange_centre(taken.x, taken.y);
@@ -1054,6 +1066,96 @@ bool SpoolDetector::nearerTurnedSpool(const cv::Mat& image, PixelFormat format, 
       return true;
   }
   std::swap(holes_, target_holes_);
+  return false;
+}
+
+cv::Rect2d SpoolDetector::nearerThan(const cv::Point2d& reference, const SpoolDetection& result) const
+{
+  // Such a spool's centre lies outside the result's flange, on the reference's side of it.
+  const Circle& taken = result.flange;
+  const double bound = std::hypot(result.hole.x - reference.x, result.hole.y - reference.y);
+  const auto [top, bottom] = geometry_->pullerLevelRows();
+  const double half_width = taken.r_horizontal > 0.0 ? taken.r_horizontal : taken.r;
+  double left = reference.x - bound;
+  double right = reference.x + bound;
+  if (taken.x > reference.x)
+    right = std::min(right, taken.x - half_width);
+  else
+    left = std::max(left, taken.x + half_width);
+  if (!(right > left))
+    return {};
+  return cv::Rect2d(left, top, right - left, bottom - top) &
+         cv::Rect2d(0.0, 0.0, preprocessed_.cols, preprocessed_.rows);
+}
+
+bool SpoolDetector::nearerTurnedFlange(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                                       const HoughSearch& flange_search, SpoolDetection& result)
+{
+  if (params_.matcher.mode != MatchMode::kMcht || !std::isfinite(result.axis[2]) || edges_.empty())
+    return false;
+  // The shelf's spools stand with about parallel axes: about the result's, every flange's ellipse
+  // is as narrow as the cosine of its own view, and the frame's edges stretched by its inverse
+  // column by column round them all. Only where a spool at the reference is seen so far off its
+  // axis that the circle search misses its ellipse.
+  const CameraIntrinsics& camera = geometry_->camera();
+  const double axis_yaw = std::atan2(result.axis[0], result.axis[2]);
+  const cv::Rect2d centres = nearerThan(reference, result);
+  if (centres.empty() || std::abs(std::atan((reference.x - camera.cx) / camera.fx) - axis_yaw) < kTurnedFlangeView)
+    return false;
+  // A spool of the same row: its size within kTurnedFlangeSizes of the result's. The edges that
+  // can vote for a centre there.
+  HoughSearch search = flange_search;
+  search.r_min = std::max(flange_search.r_min, result.flange.r_vertical / kTurnedFlangeSizes);
+  search.r_max = std::min(flange_search.r_max, result.flange.r_vertical * kTurnedFlangeSizes);
+  if (search.r_min >= search.r_max)
+    return false;
+  const double reach = search.r_max / std::cos(RimPoseSearch::kWidestViewAngle);
+  const cv::Rect2d voters(centres.x - reach, centres.y - search.r_max, centres.width + 2.0 * reach,
+                          centres.height + 2.0 * search.r_max);
+  near_edges_.clear();
+  std::copy_if(edges_.begin(), edges_.end(), std::back_inserter(near_edges_),
+               [&](const EdgePoint& e) { return voters.contains(cv::Point2d(e.x, e.y)); });
+  const cv::Size size = stretchEdges(near_edges_, axis_yaw);
+  search.center_window = stretchedWindow(centres);
+  flange_hough_.detect(stretched_edges_, size, search, turned_flanges_);
+  unstretch(axis_yaw, turned_flanges_);
+  orderByDistanceTo(reference, turned_flanges_);
+  const SpoolGeometry& geometry = *geometry_;
+  const double bound = std::hypot(result.hole.x - reference.x, result.hole.y - reference.y);
+  int tried = 0;
+  for (const Circle& flange : turned_flanges_)
+  {
+    if (std::hypot(flange.x - reference.x, flange.y - reference.y) >= bound || tried++ == kTurnedFlanges)
+      break;
+    // Its rim about its centre: from Eq. 3.2's depth on its height (a level axis keeps the rim's
+    // vertical extent) and the result's axis, as a neighbour's is sought about its bore.
+    const cv::Point3d start =
+        geometry.backProject(flange.x, flange.y, geometry.depthFromDiameter(2.0 * flange.r_vertical));
+    RimPoseFit& fit = turned_rim_;
+    if (!rim_pose_search_.searchAbout(image, format, geometry, {flange.x, flange.y}, kTurnedNearest * start.z,
+                                      kTurnedFarthest * start.z, obliqueRimSearch(flange.r_vertical), axis_yaw,
+                                      kNeighbourAxisSpread, fit) ||
+        fit.support < kTurnedFlangeSupport || !SpoolGeometry::plausiblePose(fit.position, fit.axis, start.z))
+      continue;
+    // Its bore, where the pose puts it, shows dark (too small at 160x120 for its rim to be fitted).
+    const cv::Size2d extent = geometry.boreExtent(fit.position, fit.axis);
+    Circle hole;
+    hole.x = camera.fx * fit.position.x / fit.position.z + camera.cx;
+    hole.y = camera.fy * fit.position.y / fit.position.z + camera.cy;
+    hole.r = hole.r_vertical = extent.height;
+    hole.r_horizontal = extent.width;
+    hole.score = 1.0 - params_.hough.hole_sensitivity;
+    hole.visible_fraction = 1.0;
+    const Circle rim = rimSeenAt(fit);
+    if (!(extent.height > 0.0) || !geometry.atPullerLevel(rim, hole.y) ||
+        signedBoreContrast({hole.x, hole.y}, hole.r, extent.width / extent.height) < params_.matcher.bore_contrast)
+      continue;
+    oblique_rim_ = fit;
+    oblique_rim_.rim = rim;
+    takeSpoolAboutBore(geometry, hole, result);
+    measureBoreAtKnownSize(result, std::nullopt, result.axis, true);
+    return true;
+  }
   return false;
 }
 

@@ -843,3 +843,20 @@ TEST(FailureKinds, ARimCoveringFewerCoarseSamplesThanItsRibRingsIsFittedWhereThe
 {
   expectObliqueTargetsFound({{37, 67, 100, 640}, {7, 34, 100, 640}, {131, 33, 150, 640}});
 }
+
+// A shelf seen from beside it at 160x120: the neighbour seen 10 deg off its axis is taken, while
+// the target beside it, nearer the puller and seen 30-40 deg off (the same axis, farther from the
+// line of sight), has no circle over min_score and a 3-4 px bore too small for its rim to be
+// fitted. Its ellipse is rounded by stretching the frame's columns about the taken spool's axis
+// (nearerTurnedFlange()).
+TEST(FailureKinds, ANearerFlangeTurnedFartherFromTheCameraIsFoundAboutTheTakenSpoolsAxis)
+{
+  for (const auto& [set, seed, index] :
+       {std::tuple{FrameSet::kOblique, 7, 74}, std::tuple{FrameSet::kOblique, 103, 39},
+        std::tuple{FrameSet::kOblique, 109, 67}, std::tuple{FrameSet::kOblique, 131, 145},
+        std::tuple{FrameSet::kPackedOblique, 7, 149}})
+  {
+    SCOPED_TRACE(spool_vision::toString(set));
+    expectTargetFlange(seed, index, 200, set, 160);
+  }
+}
