@@ -668,8 +668,12 @@ private:
   /// nearerTurnedFlange()'s candidates, and the share of its rim's samples the 3-D fit must keep.
   static constexpr int kTurnedFlanges = 2;
   static constexpr double kTurnedFlangeSupport = 0.6;
+  /// ... run where a spool at the reference column is seen this far off the result's axis (rad):
+  /// under it the circle search finds its flange (the main and hard sets: +0.0% instructions).
   static constexpr double kTurnedFlangeView = 20.0 * M_PI / 180.0;
+  /// ... its circles' heights within this factor of the result's (a spool of the same row).
   static constexpr double kTurnedFlangeSizes = 1.5;
+  /// ... the depths its rim is searched at, as fractions of Eq. 3.2's on the circle's height.
   static constexpr double kTurnedNearest = 0.93;
   static constexpr double kTurnedFarthest = 1.07;
   /// rad: how far a neighbour's axis may turn from the result's (20 deg: shelves do not keep

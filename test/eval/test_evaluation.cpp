@@ -101,6 +101,19 @@ sv::DetectorParams config(const std::string& name)
   sv::loadParamsYaml(std::string(SPOOL_CONFIG_DIR) + "/" + name, params);
   return params;
 }
+
+// Frame `index` of `count` of `set` drawn from `seed`, as setFrame() draws it.
+struct DrawnFrame
+{
+  sv::SceneParams scene;
+  sv::CameraPose pose;
+};
+DrawnFrame drawn(sv::FrameSet set, std::uint64_t seed, int index, int count)
+{
+  DrawnFrame f;
+  sv::setFrame(set, seed, index, count, f.scene, f.pose);
+  return f;
+}
 }  // namespace
 
 TEST(LabelledSets, EachSetHasOneNameThatReadsBack)
@@ -159,16 +172,12 @@ TEST(LabelledSets, ThePackedObliqueSetIsTheObliqueSetsViewOfAPackedShelf)
   int spools = 0;
   for (int i = 0; i < 40; ++i)
   {
-    sv::SceneParams oblique_scene;
-    sv::CameraPose oblique_pose;
-    sv::setFrame(sv::FrameSet::kOblique, 5, i, 40, oblique_scene, oblique_pose);
-    sv::SceneParams scene;
-    sv::CameraPose pose;
-    sv::setFrame(sv::FrameSet::kPackedOblique, 5, i, 40, scene, pose);
-    EXPECT_EQ(pose.distance, oblique_pose.distance) << i;
-    EXPECT_EQ(pose.yaw, oblique_pose.yaw) << i;
-    EXPECT_EQ(pose.lateral, oblique_pose.lateral) << i;
-    EXPECT_EQ(scene.kind, oblique_scene.kind) << i;
+    const DrawnFrame oblique = drawn(sv::FrameSet::kOblique, 5, i, 40);
+    const auto [scene, pose] = drawn(sv::FrameSet::kPackedOblique, 5, i, 40);
+    EXPECT_EQ(pose.distance, oblique.pose.distance) << i;
+    EXPECT_EQ(pose.yaw, oblique.pose.yaw) << i;
+    EXPECT_EQ(pose.lateral, oblique.pose.lateral) << i;
+    EXPECT_EQ(scene.kind, oblique.scene.kind) << i;
     // packShelf: at least one neighbour on each side, at most 3.
     const auto left = std::count_if(scene.neighbours.begin(), scene.neighbours.end(),
                                     [](const sv::NeighbourSpool& n) { return n.side < 0; });
@@ -961,19 +970,15 @@ TEST(LabelledSets, TheDistortedSetIsMainThroughAC270LensPlusNearAlignedPoses)
   int aligned = 0;
   for (int i = 0; i < 60; ++i)
   {
-    sv::SceneParams scene;
-    sv::CameraPose pose;
-    sv::setFrame(sv::FrameSet::kDistorted, 3, i, 60, scene, pose);
-    sv::SceneParams main_scene;
-    sv::CameraPose main_pose;
-    sv::setFrame(sv::FrameSet::kMain, 3, i, 60, main_scene, main_pose);
+    const auto [scene, pose] = drawn(sv::FrameSet::kDistorted, 3, i, 60);
+    const DrawnFrame main = drawn(sv::FrameSet::kMain, 3, i, 60);
     if (i % 3 != 2)
     {
-      EXPECT_EQ(scene.seed, main_scene.seed) << i;  // main's frame
-      EXPECT_EQ(pose.distance, main_pose.distance) << i;
+      EXPECT_EQ(scene.seed, main.scene.seed) << i;  // main's frame
+      EXPECT_EQ(pose.distance, main.pose.distance) << i;
       continue;
     }
-    EXPECT_NE(scene.seed, main_scene.seed) << i;
+    EXPECT_NE(scene.seed, main.scene.seed) << i;
     const sv::GroundTruth truth = renderer.groundTruth(scene, pose);
     ++near;
     EXPECT_GE(truth.distance, 0.48);
