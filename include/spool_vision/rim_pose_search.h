@@ -77,10 +77,12 @@ public:
   /// about the camera's y axis from the optical axis: atan2(x, z), camera optical frame),
   /// kYawStep apart, those seen at most kWidestViewAngle off the line of sight to `bore`: a
   /// neighbour of a spool whose axis was measured, seen farther off its axis than search() tries.
-  /// The kRefinedAbout best covered poses are measured in full; `fallback` as search()'s.
+  /// The kRefinedAbout best covered poses are measured in full; `fallback` as search()'s; the
+  /// centre fitted within `off_centre` of the rim's size where the fit about the bore's ray fails
+  /// (a share; search()'s kBoreOffCentre by default).
   bool searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                    double nearest, double farthest, const RimSearch& search, double axis_yaw, double half_range,
-                   RimPoseFit& best, std::size_t fallback = 0);
+                   RimPoseFit& best, std::size_t fallback = 0, double off_centre = kBoreOffCentre);
 
   /// How many samples of the last measure()'s rim had their whole normal in the frame.
   std::size_t samplesInFrame() const
@@ -124,10 +126,11 @@ private:
   /// best covered measured in full, and where none fits the next `fallback`.
   bool searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                   double nearest, double farthest, const RimSearch& search, double centre_yaw, int turns,
-                  std::size_t refined, std::size_t fallback, RimPoseFit& best);
-  /// measure(), with the centre also fitted within kBoreOffCentre where `off_centre` holds.
+                  std::size_t refined, std::size_t fallback, double off_centre, RimPoseFit& best);
+  /// measure(), where the fit about the bore's ray fails with the centre also fitted within
+  /// `off_centre` of the rim's size of the bore (0: not).
   bool measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
-                   const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, bool off_centre,
+                   const cv::Point3d& position, const cv::Vec3d& axis, const RimSearch& search, double off_centre,
                    RimPoseFit& fit);
 
   /// A pose of searchYaws()' scan and how much of its rim the coarse look covered.
@@ -145,7 +148,7 @@ private:
   /// about the bore too: rims about `best`'s axis are measured outwards, kDepthStep apart, out to
   /// kInnerRing times its size, and the outermost with kOuterSupport of `best`'s support replaces it.
   void outermost(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
-                 const RimSearch& search, RimPoseFit& best);
+                 const RimSearch& search, double off_centre, RimPoseFit& best);
 
   MovingEdges moving_edges_;
   RimPoseFit candidate_;

@@ -673,6 +673,10 @@ private:
   static constexpr double kTurnedFlangeView = 20.0 * M_PI / 180.0;
   /// ... its circles' heights within this factor of the result's (a spool of the same row).
   static constexpr double kTurnedFlangeSizes = 1.5;
+  /// ... its rim's centre fitted within this share of its size of the circle's: the circle on the
+  /// stretched frame leans 2 px (6%) towards the back flange's silhouette at 160x120 (packed
+  /// oblique seed 7 #68), beyond RimPoseSearch::kBoreOffCentre.
+  static constexpr double kTurnedOffCentre = 0.1;
   /// ... the depths its rim is searched at, as fractions of Eq. 3.2's on the circle's height.
   static constexpr double kTurnedNearest = 0.93;
   static constexpr double kTurnedFarthest = 1.07;

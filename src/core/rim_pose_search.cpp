@@ -16,12 +16,12 @@ bool RimPoseSearch::measure(const cv::Mat& image, PixelFormat format, const Spoo
                             const cv::Point2d& bore, const cv::Point3d& position, const cv::Vec3d& axis,
                             const RimSearch& search, RimPoseFit& fit)
 {
-  return measurePose(image, format, geometry, bore, position, axis, search, false, fit);
+  return measurePose(image, format, geometry, bore, position, axis, search, 0.0, fit);
 }
 
 bool RimPoseSearch::measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 const cv::Point2d& bore, const cv::Point3d& position, const cv::Vec3d& axis,
-                                const RimSearch& search, bool off_centre, RimPoseFit& fit)
+                                const RimSearch& search, double off_centre, RimPoseFit& fit)
 {
   const bool facing = !(std::isfinite(axis[0]) && std::isfinite(axis[1]) && std::isfinite(axis[2]));
   const cv::Vec3d start = facing ? cv::Vec3d(0.0, 0.0, 1.0) : axis;
@@ -37,8 +37,8 @@ bool RimPoseSearch::measurePose(const cv::Mat& image, PixelFormat format, const 
   // About the bore's ray first; where that leaves too few edges in the band, the centre is fitted
   // too (a dark bore seen far off its axis is measured a few px off its centre).
   if (!geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support) &&
-      !(off_centre &&
-        geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support, kBoreOffCentre * rim.r)))
+      !(off_centre > 0.0 &&
+        geometry.fitRimPose(moving_edges_.rimEdges(), bore, fitted, fitted_axis, &support, off_centre * rim.r)))
     return false;
   fit.position = fitted;
   fit.axis = fitted_axis;
@@ -54,23 +54,25 @@ bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const Spool
                            RimPoseFit& best, std::size_t fallback)
 {
   const CameraIntrinsics& camera = geometry.camera();
-  return searchYaws(image, format, geometry, bore, nearest, farthest, search,
-                    std::atan((bore.x - camera.cx) / camera.fx),
-                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, fallback, best);
+  return searchYaws(
+      image, format, geometry, bore, nearest, farthest, search, std::atan((bore.x - camera.cx) / camera.fx),
+      static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, fallback, kBoreOffCentre, best);
 }
 
 bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
-                                double axis_yaw, double half_range, RimPoseFit& best, std::size_t fallback)
+                                double axis_yaw, double half_range, RimPoseFit& best, std::size_t fallback,
+                                double off_centre)
 {
   return searchYaws(image, format, geometry, bore, nearest, farthest, search, axis_yaw,
-                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), kRefinedAbout, fallback, best);
+                    static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), kRefinedAbout, fallback, off_centre,
+                    best);
 }
 
 bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
                                double centre_yaw, int turns, std::size_t refined, std::size_t fallback,
-                               RimPoseFit& best)
+                               double off_centre, RimPoseFit& best)
 {
   const CameraIntrinsics& camera = geometry.camera();
   const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
@@ -118,7 +120,7 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
     if (!(pose.score > 0.0))
       continue;
     if (measurePose(image, format, geometry, bore, ray * pose.depth,
-                    cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, true, candidate_) &&
+                    cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, off_centre, candidate_) &&
         (!found || candidate_.support > best.support))
     {
       best = candidate_;  // a copy: each keeps its grown capacity
@@ -145,7 +147,7 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
         continue;
       ++tried;
       if (measurePose(image, format, geometry, bore, ray * pose.depth,
-                      cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, true, candidate_) &&
+                      cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, off_centre, candidate_) &&
           (!found || candidate_.support > best.support))
       {
         best = candidate_;
@@ -169,10 +171,10 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
                                                     { return pose.depth == outer->depth && pose.yaw == outer->yaw; });
     if (!kept_already &&
         measurePose(image, format, geometry, bore, ray * outer->depth,
-                    cv::Vec3d(std::sin(outer->yaw), 0.0, std::cos(outer->yaw)), search, true, candidate_) &&
+                    cv::Vec3d(std::sin(outer->yaw), 0.0, std::cos(outer->yaw)), search, off_centre, candidate_) &&
         outside(candidate_, best))
       best = candidate_;
-    outermost(image, format, geometry, bore, search, best);
+    outermost(image, format, geometry, bore, search, off_centre, best);
   }
   if (!held)
     moving_edges_.endFrame();
@@ -185,7 +187,7 @@ bool RimPoseSearch::outside(const RimPoseFit& outer, const RimPoseFit& inner)
 }
 
 void RimPoseSearch::outermost(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                              const cv::Point2d& bore, const RimSearch& search, RimPoseFit& best)
+                              const cv::Point2d& bore, const RimSearch& search, double off_centre, RimPoseFit& best)
 {
   const cv::Point3d ray = best.position / best.position.z;
   const cv::Vec3d axis = best.axis;
@@ -196,7 +198,7 @@ void RimPoseSearch::outermost(const cv::Mat& image, PixelFormat format, const Sp
     const double depth = inner / std::pow(kDepthStep, step);
     // Only a rim that stays nearer than the one inside (the moving edges reach back to it from
     // the first step out) and that is as solid counts.
-    if (measurePose(image, format, geometry, bore, ray * depth, axis, search, true, candidate_) &&
+    if (measurePose(image, format, geometry, bore, ray * depth, axis, search, off_centre, candidate_) &&
         outside(candidate_, best))
       best = candidate_;
   }

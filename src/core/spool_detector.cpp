@@ -1134,7 +1134,7 @@ bool SpoolDetector::nearerTurnedFlange(const cv::Mat& image, PixelFormat format,
     RimPoseFit& fit = turned_rim_;
     if (!rim_pose_search_.searchAbout(image, format, geometry, {flange.x, flange.y}, kTurnedNearest * start.z,
                                       kTurnedFarthest * start.z, obliqueRimSearch(flange.r_vertical), axis_yaw,
-                                      kNeighbourAxisSpread, fit) ||
+                                      kNeighbourAxisSpread, fit, 0, kTurnedOffCentre) ||
         fit.support < kTurnedFlangeSupport || !SpoolGeometry::plausiblePose(fit.position, fit.axis, start.z))
       continue;
     // Its bore, where the pose puts it, shows dark (too small at 160x120 for its rim to be fitted).
