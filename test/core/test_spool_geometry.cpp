@@ -235,23 +235,35 @@ spool_vision::Circle imagedRim(const CameraIntrinsics& camera, const cv::Vec3d& 
   circle.r = circle.r_vertical = 0.5 * (bottom - top);
   return circle;
 }
+
+// A spool's face centre (m, camera optical frame) and its axis turned (about y) and tilted (about x).
+struct PoseCase
+{
+  cv::Vec3d centre;
+  double yaw_deg, pitch_deg;
+  // The axis, not normalised: (tan yaw, tan pitch, 1).
+  cv::Vec3d axis() const
+  {
+    return {std::tan(yaw_deg * kDeg), std::tan(pitch_deg * kDeg), 1.0};
+  }
+};
+
+std::ostream& operator<<(std::ostream& out, const PoseCase& k)
+{
+  return out << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg;
+}
 }  // namespace
 
 TEST(SpoolGeometry, RimPoseGivesDepthPositionAndAxisOfATiltedSpool)
 {
   const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
   const SpoolGeometry g(GeometryParams(), camera);
-  struct Case
+  for (const PoseCase& k : {PoseCase{{0.0, 0.06, 0.55}, 0.0, 0.0}, PoseCase{{0.2, 0.06, 0.55}, 0.0, 0.0},
+                            PoseCase{{0.0, 0.06, 0.55}, 1.0, 0.0}, PoseCase{{0.15, 0.05, 0.6}, -4.0, 1.5},
+                            PoseCase{{-0.35, 0.0, 1.05}, 5.0, -2.0}})
   {
-    cv::Vec3d centre;
-    double yaw_deg, pitch_deg;
-  };
-  for (const Case& k :
-       {Case{{0.0, 0.06, 0.55}, 0.0, 0.0}, Case{{0.2, 0.06, 0.55}, 0.0, 0.0}, Case{{0.0, 0.06, 0.55}, 1.0, 0.0},
-        Case{{0.15, 0.05, 0.6}, -4.0, 1.5}, Case{{-0.35, 0.0, 1.05}, 5.0, -2.0}})
-  {
-    SCOPED_TRACE(::testing::Message() << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg);
-    const cv::Vec3d n(std::tan(k.yaw_deg * kDeg), std::tan(k.pitch_deg * kDeg), 1.0);
+    SCOPED_TRACE(::testing::Message() << k);
+    const cv::Vec3d n = k.axis();
     SpoolDetection d;
     d.detected = d.hole_detected = true;
     d.flange = imagedRim(camera, k.centre, n, 0.175);
@@ -276,23 +288,18 @@ TEST(SpoolGeometry, BoreExtentIsTheProjectedFrontRimsHalfWidthAndHalfHeight)
 {
   const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
   const SpoolGeometry g(GeometryParams(), camera);
-  struct Case
+  for (const PoseCase& k : {PoseCase{{0.0, 0.06, 0.55}, 0.0, 0.0}, PoseCase{{-0.12, 0.07, 0.57}, -40.0, 0.0},
+                            PoseCase{{0.2, 0.05, 0.8}, 30.0, 2.0}, PoseCase{{0.05, -0.1, 0.5}, 25.0, -25.0}})
   {
-    cv::Point3d centre;
-    double yaw_deg, pitch_deg;
-  };
-  for (const Case& k : {Case{{0.0, 0.06, 0.55}, 0.0, 0.0}, Case{{-0.12, 0.07, 0.57}, -40.0, 0.0},
-                        Case{{0.2, 0.05, 0.8}, 30.0, 2.0}, Case{{0.05, -0.1, 0.5}, 25.0, -25.0}})
-  {
-    SCOPED_TRACE(::testing::Message() << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg);
-    const cv::Vec3d axis = cv::normalize(cv::Vec3d(std::tan(k.yaw_deg * kDeg), std::tan(k.pitch_deg * kDeg), 1.0));
+    SCOPED_TRACE(::testing::Message() << k);
+    const cv::Vec3d axis = cv::normalize(k.axis());
     const cv::Vec3d u = cv::normalize(axis.cross(cv::Vec3d(0.0, 1.0, 0.0)));
     const cv::Vec3d v = axis.cross(u);
     double left = 1e9, right = -1e9, top = 1e9, bottom = -1e9;
     for (int i = 0; i < 3600; ++i)
     {
       const double t = 2.0 * M_PI * i / 3600.0;
-      const cv::Vec3d p = cv::Vec3d(k.centre) + 0.018 * (std::cos(t) * u + std::sin(t) * v);
+      const cv::Vec3d p = k.centre + 0.018 * (std::cos(t) * u + std::sin(t) * v);
       const double x = camera.cx + camera.fx * p[0] / p[2];
       const double y = camera.cy + camera.fy * p[1] / p[2];
       left = std::min(left, x);
@@ -300,7 +307,7 @@ TEST(SpoolGeometry, BoreExtentIsTheProjectedFrontRimsHalfWidthAndHalfHeight)
       top = std::min(top, y);
       bottom = std::max(bottom, y);
     }
-    const cv::Size2d extent = g.boreExtent(k.centre, axis);
+    const cv::Size2d extent = g.boreExtent(cv::Point3d(k.centre), axis);
     EXPECT_NEAR(extent.width, 0.5 * (right - left), 0.02);
     EXPECT_NEAR(extent.height, 0.5 * (bottom - top), 0.02);
   }
