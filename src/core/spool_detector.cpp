@@ -820,7 +820,8 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       break;
     HoughSearch holes = hole_search;
     const double shift = kObliqueBoreShift * flange.r_vertical;
-    holes.center_window = cv::Rect2d(flange.x - shift, flange.y - shift, 2.0 * shift, 2.0 * shift);
+    const cv::Rect2d near_centre(flange.x - shift, flange.y - shift, 2.0 * shift, 2.0 * shift);
+    holes.center_window = near_centre;
     const double expected = matcher_.holeRadius(flange);
     holes.r_min = std::max(hole_search.r_min, 0.5 * expected);
     holes.r_max = std::min(hole_search.r_max, 1.2 * expected);
@@ -844,6 +845,8 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
       if (spoolAboutHoles(image, format, reference, bound, hole_search.r_min, kBoreLedHoles, result))
         return true;
     }
+    if (besideSilhouette(image, format, reference, flange, near_centre, holes, bound, result))
+      return true;
   }
   if (!replacing && bore_led)
   {
@@ -874,6 +877,30 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   else
     holes_.clear();  // no target: its hole candidates are none
   return false;
+}
+
+bool SpoolDetector::besideSilhouette(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
+                                     const Circle& flange, const cv::Rect2d& searched, HoughSearch& holes, double bound,
+                                     SpoolDetection& result)
+{
+  // The joint silhouette's circle lies between the two flanges' centres, the back one's
+  // hub_length * sin(view) / (flange_diameter / 2) = 0.73 of the flange's height aside at 40 deg:
+  // the front bore can be farther aside than the window searched (0.36 of it on oblique seed 47
+  // #10 at 1280x720, 0.51 on seed 131 #3), in the rows the circle gives it.
+  const double aside = kSilhouetteBoreShift * flange.r_vertical;
+  holes.center_window = cv::Rect2d(flange.x - aside, searched.y, 2.0 * aside, searched.height);
+  extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+  detectHoles(holes);
+  // Only the bores beside the window searched, on their rims alone: out there a weak ring with a
+  // dark disc is as often off the bore or a neighbour's (oblique seed 131 #11 at 1280x720: a rim
+  // 1.75 times the flange was then taken about a rib ring; seed 97 #18 at 320x240: a neighbour).
+  const double least = params_.matcher.weak_hole_score;
+  holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
+                              [&](const Circle& hole) {
+                                return searched.contains({hole.x, hole.y}) || hole.score < least;
+                              }),
+               holes_.end());
+  return spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kObliqueHoles, result);
 }
 
 bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,

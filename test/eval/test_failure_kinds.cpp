@@ -866,3 +866,19 @@ TEST(FailureKinds, ANearerFlangeTurnedFartherFromTheCameraIsFoundAboutTheTakenSp
     expectTargetFlange(seed, index, 200, set, 160);
   }
 }
+
+// Seen 35-40 deg off its axis, a spool's outline with its back flange's silhouette was fitted by a
+// circle whose centre lay more than kObliqueBoreShift of its size aside of the front bore, and no
+// other circle led to the bore: nothing was reported. The sharp bores beside that window, in its
+// rows, lead to the rim (SpoolDetector::besideSilhouette()).
+TEST(FailureKinds, ASharpBoreBesideAJointSilhouettesCircleLeadsToTheObliqueSpool)
+{
+  for (const auto& [set, seed, index, count, width] :
+       {std::tuple{FrameSet::kOblique, 131, 22, 150, 320}, std::tuple{FrameSet::kOblique, 131, 68, 150, 320},
+        std::tuple{FrameSet::kOblique, 97, 34, 100, 320}, std::tuple{FrameSet::kHard, 103, 80, 150, 640},
+        std::tuple{FrameSet::kOblique, 47, 10, 50, 1280}})
+  {
+    SCOPED_TRACE(spool_vision::toString(set));
+    expectTargetFlange(seed, index, count, set, width, width == 1280 ? 720 : 0);
+  }
+}
