@@ -445,22 +445,21 @@ private:
   /// kObliqueSpoolSupport whose bore is at the puller's level and agrees with it (boreAgreesWith, or
   /// boreAgreesAtOwnSize where that fails), on a rim cut by the border (cutByBorder) only with a hole rim of
   /// cut_flange_hole_score (a disc alone there was a label's print on a neighbour), is the spool: `result` (undistorted
-  /// px, its rim in oblique_rim_) and true. Where a candidate's window leads to none, the bores
-  /// beside it (besideSilhouette()). With `bore_led` and no spool taken, where no candidate gives one, the
+  /// px, its rim in oblique_rim_) and true. Where no candidate's window leads to one, the bores
+  /// beside each (besideSilhouette()). With `bore_led` and no spool taken, where no candidate gives one, the
   /// kBoreLedHoles bores nearest the reference found over the whole frame are searched the same way, then
   /// smallBoreSpool().
   /// The candidates are `flanges`, tried in order of ConcentricMatcher::targetCost().
   bool obliqueSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                     const std::vector<Circle>& flanges, const HoughSearch& hole_search, double bound, bool bore_led,
                     SpoolDetection& result);
-  /// obliqueSpool()'s last step about a candidate `flange` (undistorted px) whose window
-  /// `searched` (kObliqueBoreShift of its size about its centre) led to no spool: seen 35-40 deg
+  /// obliqueSpool()'s last step about a candidate `flange` (undistorted px), after every
+  /// candidate's window `searched` (kObliqueBoreShift of its size about its centre) led to no spool: seen 35-40 deg
   /// off its axis, the joint silhouette's circle is up to kSilhouetteBoreShift of the flange's
-  /// height aside of the front bore. Holes are searched (`holes`: the candidate's sizes; its
-  /// centre window is overwritten) in the rows of `searched` out to kSilhouetteBoreShift either
-  /// side; those outside `searched` and scoring weak_hole_score are searched as spoolAboutHoles()
-  /// does (`reference`, `bound`). True with the spool in `result` (undistorted px, its rim in
-  /// oblique_rim_).
+  /// height aside of the front bore. Holes are searched (`holes`: the candidate's sizes from
+  /// kMinKnownSizeRadius up; its centre window is overwritten) in the rows of `searched` out to kSilhouetteBoreShift
+  /// either side; those outside `searched` and scoring weak_hole_score are searched as spoolAboutHoles() does
+  /// (`reference`, `bound`). True with the spool in `result` (undistorted px, its rim in oblique_rim_).
   bool besideSilhouette(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference, const Circle& flange,
                         const cv::Rect2d& searched, HoughSearch& holes, double bound, SpoolDetection& result);
   /// obliqueSpool()'s last resort: seen 25-40 deg off its axis at 160x120, a spool's dark bore
@@ -660,8 +659,9 @@ private:
   static constexpr double kRibRingBoreMax = 1.8;
   static constexpr double kObliqueBoreShift = 0.35;
   /// besideSilhouette()'s reach either side (of the candidate's radius). On the 40 rendered sets
-  /// (sessions 38-41) it found 5 more targets (1280x720 1, 640x480 1, 320x240 3) and lost none;
-  /// 0.75 found 2 more at 640x480 but lost 2 at 320x240 and reported a neighbour.
+  /// (sessions 38-41) it found 4 more targets (1280x720 1, 640x480 1, 320x240 2) and lost none;
+  /// 0.75 (tried about each candidate before the next one's own window) found 2 more at 640x480
+  /// but lost 2 at 320x240 and reported a neighbour.
   static constexpr double kSilhouetteBoreShift = 0.6;
   static constexpr int kObliqueHoles = 1;
   /// Bores over the whole frame tried where no flange circle led to a spool. On the oblique, hard

@@ -804,49 +804,58 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
   const bool replacing = std::isfinite(bound);
   if (replacing)
     std::swap(holes_, target_holes_);
-  int tried = 0;
   ConcentricMatcher::orderByReference(flanges, reference, candidate_order_);
-  for (const std::size_t i : candidate_order_)
+  // The candidates' own windows first, then beside them: a bore beside the first one's window must
+  // not pass over a sharp bore in the second one's (oblique seed 159 #27 of 50 at 320x240).
+  for (const bool beside : {false, true})
   {
-    const Circle flange = flanges[i];
-    if (flange.r_vertical < kObliqueRimMinRadius)
-      continue;
-    // Only another spool, nearer the reference than the one taken, can replace it.
-    if (ConcentricMatcher::targetCost({flange.x, flange.y}, flange.score, reference) >= bound)
-      break;
-    if (replacing && std::hypot(flange.x - result.flange.x, flange.y - result.flange.y) < result.flange.r)
-      continue;
-    if (tried++ == kObliqueCandidates)
-      break;
-    HoughSearch holes = hole_search;
-    const double shift = kObliqueBoreShift * flange.r_vertical;
-    const cv::Rect2d near_centre(flange.x - shift, flange.y - shift, 2.0 * shift, 2.0 * shift);
-    holes.center_window = near_centre;
-    const double expected = matcher_.holeRadius(flange);
-    holes.r_min = std::max(hole_search.r_min, 0.5 * expected);
-    holes.r_max = std::min(hole_search.r_max, 1.2 * expected);
-    if (holes.r_min >= holes.r_max)
-      continue;
-    extractHoleEdges(holes.center_window, holes.r_max + 2.0);
-    detectHoles(holes);
-    if (spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kObliqueHoles, result))
-      return true;
-    // A spool nearer the reference than the one taken, its bore too small to measure (160x120:
-    // oblique seed 109 #151, #297, a neighbour reported where the target's 4 px bore was plain):
-    // sought about the nearest sharp bore as smallBoreSpool() does, the candidate's larger bores
-    // standing for the lens test.
-    if (replacing && holes.r_min < kMinKnownSizeRadius)
+    int tried = 0;
+    for (const std::size_t i : candidate_order_)
     {
-      larger_bores_.clear();
-      std::copy_if(holes_.begin(), holes_.end(), std::back_inserter(larger_bores_),
-                   [](const Circle& bore) { return bore.r >= kMinKnownSizeRadius; });
-      keepSharpBoresOutside(kMinKnownSizeRadius);
-      orderByDistanceTo(reference, holes_);
-      if (spoolAboutHoles(image, format, reference, bound, hole_search.r_min, kBoreLedHoles, result))
+      const Circle flange = flanges[i];
+      if (flange.r_vertical < kObliqueRimMinRadius)
+        continue;
+      // Only another spool, nearer the reference than the one taken, can replace it.
+      if (ConcentricMatcher::targetCost({flange.x, flange.y}, flange.score, reference) >= bound)
+        break;
+      if (replacing && std::hypot(flange.x - result.flange.x, flange.y - result.flange.y) < result.flange.r)
+        continue;
+      if (tried++ == kObliqueCandidates)
+        break;
+      HoughSearch holes = hole_search;
+      const double shift = kObliqueBoreShift * flange.r_vertical;
+      const cv::Rect2d near_centre(flange.x - shift, flange.y - shift, 2.0 * shift, 2.0 * shift);
+      holes.center_window = near_centre;
+      const double expected = matcher_.holeRadius(flange);
+      holes.r_min = std::max(hole_search.r_min, 0.5 * expected);
+      holes.r_max = std::min(hole_search.r_max, 1.2 * expected);
+      if (holes.r_min >= holes.r_max)
+        continue;
+      if (beside)
+      {
+        if (besideSilhouette(image, format, reference, flange, near_centre, holes, bound, result))
+          return true;
+        continue;
+      }
+      extractHoleEdges(holes.center_window, holes.r_max + 2.0);
+      detectHoles(holes);
+      if (spoolAboutHoles(image, format, reference, bound, kMinKnownSizeRadius, kObliqueHoles, result))
         return true;
+      // A spool nearer the reference than the one taken, its bore too small to measure (160x120:
+      // oblique seed 109 #151, #297, a neighbour reported where the target's 4 px bore was plain):
+      // sought about the nearest sharp bore as smallBoreSpool() does, the candidate's larger bores
+      // standing for the lens test.
+      if (replacing && holes.r_min < kMinKnownSizeRadius)
+      {
+        larger_bores_.clear();
+        std::copy_if(holes_.begin(), holes_.end(), std::back_inserter(larger_bores_),
+                     [](const Circle& bore) { return bore.r >= kMinKnownSizeRadius; });
+        keepSharpBoresOutside(kMinKnownSizeRadius);
+        orderByDistanceTo(reference, holes_);
+        if (spoolAboutHoles(image, format, reference, bound, hole_search.r_min, kBoreLedHoles, result))
+          return true;
+      }
     }
-    if (besideSilhouette(image, format, reference, flange, near_centre, holes, bound, result))
-      return true;
   }
   if (!replacing && bore_led)
   {
@@ -887,6 +896,10 @@ bool SpoolDetector::besideSilhouette(const cv::Mat& image, PixelFormat format, c
   // hub_length * sin(view) / (flange_diameter / 2) = 0.73 of the flange's height aside at 40 deg:
   // the front bore can be farther aside than the window searched (0.36 of it on oblique seed 47
   // #10 at 1280x720, 0.51 on seed 131 #3), in the rows the circle gives it.
+  // Only bores whose rim can be searched about (spoolAboutHoles()' least) are sought.
+  holes.r_min = std::max(holes.r_min, kMinKnownSizeRadius);
+  if (holes.r_min >= holes.r_max)
+    return false;
   const double aside = kSilhouetteBoreShift * flange.r_vertical;
   holes.center_window = cv::Rect2d(flange.x - aside, searched.y, 2.0 * aside, searched.height);
   extractHoleEdges(holes.center_window, holes.r_max + 2.0);
