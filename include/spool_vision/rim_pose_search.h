@@ -69,10 +69,14 @@ public:
   /// then outermost() from it. Where none of the kRefined fits, the next `fallback` best covered
   /// poses are fitted (a rim seen 25-40 deg off its axis borders its own back flange along a third
   /// of it and covers 0.6-0.8 of its coarse samples, a rib ring inside it all of them, and rib
-  /// rings fail the 3-D fit). `nearest` and `farthest` positive, nearest <= farthest. False when
-  /// none fits.
+  /// rings fail the 3-D fit). With `in_view_retry`, where none of those fits either, the kRefined
+  /// are measured again with as many samples inside the frame as a whole rim has
+  /// (RimSearch::samples_in_view), and so are the rims outside the one found: a face the frame cuts
+  /// near the camera keeps too few for the 3-D fit otherwise. `nearest` and `farthest` positive,
+  /// nearest <= farthest. False when none fits.
   bool search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
-              double nearest, double farthest, const RimSearch& search, RimPoseFit& best, std::size_t fallback = 0);
+              double nearest, double farthest, const RimSearch& search, RimPoseFit& best, std::size_t fallback = 0,
+              bool in_view_retry = false);
   /// search() over the level axes within `half_range` (rad) of `axis_yaw` (rad, the axis's turn
   /// about the camera's y axis from the optical axis: atan2(x, z), camera optical frame),
   /// kYawStep apart, those seen at most kWidestViewAngle off the line of sight to `bore`: a
@@ -123,10 +127,11 @@ public:
 private:
   /// search()'s scan over the axes centre_yaw + k kYawStep, |k| <= turns (rad, level), those within
   /// kWidestViewAngle of the line of sight, the `refined` (at most max(kRefined, kRefinedAbout))
-  /// best covered measured in full, and where none fits the next `fallback`.
+  /// best covered measured in full, where none fits the next `fallback`, and where none of those
+  /// does either and `in_view_retry`, the `refined` again densely in view (search()).
   bool searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
                   double nearest, double farthest, const RimSearch& search, double centre_yaw, int turns,
-                  std::size_t refined, std::size_t fallback, double off_centre, RimPoseFit& best);
+                  std::size_t refined, std::size_t fallback, double off_centre, bool in_view_retry, RimPoseFit& best);
   /// measure(), where the fit about the bore's ray fails with the centre also fitted within
   /// `off_centre` of the rim's size of the bore (0: not).
   bool measurePose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
@@ -141,6 +146,11 @@ private:
     double yaw = 0.0;    ///< rad, the level axis's atan2(x, z)
   };
 
+  /// measurePose() at the coarse `pose` (its score positive) about `bore`'s ray: true where a rim
+  /// was fitted before (`found`) or now; the fit replaces `best` where none was found before or it
+  /// has more support.
+  bool fitPose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
+               const CoarsePose& pose, const RimSearch& search, double off_centre, bool found, RimPoseFit& best);
   /// Whether `outer` replaces `inner` as the flange: nearer by half a depth step (the moving edges
   /// reach back to the inner rim from one step out) and with kOuterSupport of its support.
   static bool outside(const RimPoseFit& outer, const RimPoseFit& inner);

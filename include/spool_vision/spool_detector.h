@@ -619,9 +619,10 @@ private:
   /// kObliqueBoreFarthest of the depth its size gives (within distance_min..distance_max); with
   /// `axis_yaw` (rad), RimPoseSearch::searchAbout() within kNeighbourAxisSpread of it, the rim
   /// then rimSeenAt() its pose. `fallback`: RimPoseSearch::search's (kBoreRimFallbackPoses where a
-  /// spool is sought about a bore; 0 where a rim found is judged again).
+  /// spool is sought about a bore; 0 where a rim found is judged again); `in_view_retry`:
+  /// RimPoseSearch::search's (without `axis_yaw` only).
   bool searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const Circle& bore,
-                      std::size_t fallback, std::optional<double> axis_yaw = std::nullopt);
+                      std::size_t fallback, std::optional<double> axis_yaw = std::nullopt, bool in_view_retry = false);
   /// The axis from the lit lens's centroid inside the target's hole rim (bore_parallax.h), once
   /// `result` is measured (undistorted px): SpoolDetection::parallax_*.
   void measureBoreParallax(const SpoolGeometry& geometry, SpoolDetection& result);

@@ -51,12 +51,13 @@ bool RimPoseSearch::measurePose(const cv::Mat& image, PixelFormat format, const 
 
 bool RimPoseSearch::search(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                            const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
-                           RimPoseFit& best, std::size_t fallback)
+                           RimPoseFit& best, std::size_t fallback, bool in_view_retry)
 {
   const CameraIntrinsics& camera = geometry.camera();
-  return searchYaws(
-      image, format, geometry, bore, nearest, farthest, search, std::atan((bore.x - camera.cx) / camera.fx),
-      static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, fallback, kBoreOffCentre, best);
+  return searchYaws(image, format, geometry, bore, nearest, farthest, search,
+                    std::atan((bore.x - camera.cx) / camera.fx),
+                    static_cast<int>(std::floor(kMaxViewAngle / kYawStep + 1e-9)), kRefined, fallback, kBoreOffCentre,
+                    in_view_retry, best);
 }
 
 bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
@@ -66,13 +67,13 @@ bool RimPoseSearch::searchAbout(const cv::Mat& image, PixelFormat format, const 
 {
   return searchYaws(image, format, geometry, bore, nearest, farthest, search, axis_yaw,
                     static_cast<int>(std::floor(half_range / kYawStep + 1e-9)), kRefinedAbout, fallback, off_centre,
-                    best);
+                    false, best);
 }
 
 bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                const cv::Point2d& bore, double nearest, double farthest, const RimSearch& search,
                                double centre_yaw, int turns, std::size_t refined, std::size_t fallback,
-                               double off_centre, RimPoseFit& best)
+                               double off_centre, bool in_view_retry, RimPoseFit& best)
 {
   const CameraIntrinsics& camera = geometry.camera();
   const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
@@ -115,18 +116,7 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
   }
   bool found = false;
   for (auto it = top; it != top_end; ++it)
-  {
-    const CoarsePose& pose = *it;
-    if (!(pose.score > 0.0))
-      continue;
-    if (measurePose(image, format, geometry, bore, ray * pose.depth,
-                    cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, off_centre, candidate_) &&
-        (!found || candidate_.support > best.support))
-    {
-      best = candidate_;  // a copy: each keeps its grown capacity
-      found = true;
-    }
-  }
+    found = fitPose(image, format, geometry, bore, *it, search, off_centre, found, best);
   if (!found && fallback > 0)
   {
     // The rim borders its own back flange along a third of it and covers fewer of its coarse
@@ -146,14 +136,18 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
                       { return kept_pose.depth == pose.depth && kept_pose.yaw == pose.yaw; }))
         continue;
       ++tried;
-      if (measurePose(image, format, geometry, bore, ray * pose.depth,
-                      cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, off_centre, candidate_) &&
-          (!found || candidate_.support > best.support))
-      {
-        best = candidate_;
-        found = true;
-      }
+      found = fitPose(image, format, geometry, bore, pose, search, off_centre, found, best);
     }
+  }
+  // A face the frame cuts near the camera keeps 25-50 of the 96 samples of its rim, and the 3-D fit
+  // asks for 30 in its band: the best covered are measured again, and the rims outside the one
+  // found, with as many samples in the frame as a whole rim has.
+  RimSearch measured = search;
+  if (!found && in_view_retry)
+  {
+    measured.samples_in_view = true;
+    for (auto it = top; it != top_end; ++it)
+      found = fitPose(image, format, geometry, bore, *it, measured, off_centre, found, best);
   }
   if (found)
   {
@@ -171,14 +165,30 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
                                                     { return pose.depth == outer->depth && pose.yaw == outer->yaw; });
     if (!kept_already &&
         measurePose(image, format, geometry, bore, ray * outer->depth,
-                    cv::Vec3d(std::sin(outer->yaw), 0.0, std::cos(outer->yaw)), search, off_centre, candidate_) &&
+                    cv::Vec3d(std::sin(outer->yaw), 0.0, std::cos(outer->yaw)), measured, off_centre, candidate_) &&
         outside(candidate_, best))
       best = candidate_;
-    outermost(image, format, geometry, bore, search, off_centre, best);
+    outermost(image, format, geometry, bore, measured, off_centre, best);
   }
   if (!held)
     moving_edges_.endFrame();
   return found;
+}
+
+bool RimPoseSearch::fitPose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                            const cv::Point2d& bore, const CoarsePose& pose, const RimSearch& search, double off_centre,
+                            bool found, RimPoseFit& best)
+{
+  if (!(pose.score > 0.0))
+    return found;
+  const CameraIntrinsics& camera = geometry.camera();
+  const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
+  if (!measurePose(image, format, geometry, bore, ray * pose.depth,
+                   cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, off_centre, candidate_) ||
+      (found && !(candidate_.support > best.support)))
+    return found;
+  best = candidate_;  // a copy: each keeps its grown capacity
+  return true;
 }
 
 bool RimPoseSearch::outside(const RimPoseFit& outer, const RimPoseFit& inner)

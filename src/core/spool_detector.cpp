@@ -572,7 +572,8 @@ bool SpoolDetector::wholeBoreRim(const Circle& hole, double min_radius)
 }
 
 bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                   const Circle& bore, std::size_t fallback, std::optional<double> axis_yaw)
+                                   const Circle& bore, std::size_t fallback, std::optional<double> axis_yaw,
+                                   bool in_view_retry)
 {
   // The depth its size gives, and the flange's size there.
   const GeometryParams& gp = params_.geometry;
@@ -582,7 +583,7 @@ bool SpoolDetector::searchRimAbout(const cv::Mat& image, PixelFormat format, con
   const double farthest = std::min(gp.distance_max, kObliqueBoreFarthest * depth);
   if (!axis_yaw)
     return rim_pose_search_.search(image, format, geometry, {bore.x, bore.y}, nearest, farthest,
-                                   obliqueRimSearch(flange_px), oblique_rim_, fallback);
+                                   obliqueRimSearch(flange_px), oblique_rim_, fallback, in_view_retry);
   // Its rim's extent in the image from the pose: seen beyond 37 deg off its axis the moving
   // edges' ellipse fit falls back to a circle (fitRimModel()).
   if (!rim_pose_search_.searchAbout(image, format, geometry, {bore.x, bore.y}, nearest, farthest,
@@ -1259,7 +1260,10 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
         (contrast < least && !(hole.score >= kSharpBoreScore && litBoreContrast({hole.x, hole.y}, hole.r) >= least)))
       continue;
     ++searched;
-    if (!searchRimAbout(image, format, geometry, hole, kBoreRimFallbackPoses, axis_yaw) ||
+    // With no spool taken, a face the frame cuts is searched densely in view too (retried so in
+    // every pose search, rib rings cut by the frame replaced right spools: hard seed 43 #37 at
+    // 320x240, 103 #16 and packed 43 #17 at 640x480).
+    if (!searchRimAbout(image, format, geometry, hole, kBoreRimFallbackPoses, axis_yaw, !std::isfinite(bound)) ||
         oblique_rim_.support < kBoreAgreedSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
         (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
         ConcentricMatcher::targetCost({hole.x, hole.y}, axis_yaw ? 1.0 : oblique_rim_.support, reference) >= bound)
