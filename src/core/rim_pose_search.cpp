@@ -114,40 +114,38 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
           std::swap(pose, *it);
     }
   }
-  bool found = false;
-  for (auto it = top; it != top_end; ++it)
-    found = fitPose(image, format, geometry, bore, *it, search, off_centre, found, best);
-  if (!found && fallback > 0)
+  // The rim borders its own back flange along a third of it and covers fewer of its coarse samples
+  // than the rib rings inside it, which the 3-D fit refuses: where none of the best covered fits,
+  // the next `fallback` best are fitted. Best covered first, equal scores in the order scanned
+  // (depth, then yaw, rising).
+  if (fallback > 0)
   {
-    // The rim borders its own back flange along a third of it and covers fewer of its coarse
-    // samples than the rib rings inside it, which the 3-D fit refuses: the next best are fitted.
-    // Best covered first, equal scores in the order scanned (depth, then yaw, rising).
     ranked_.assign(coarse_.begin(), coarse_.end());
     std::sort(ranked_.begin(), ranked_.end(),
               [](const CoarsePose& a, const CoarsePose& b)
               { return std::tie(b.score, a.depth, a.yaw) < std::tie(a.score, b.depth, b.yaw); });
-    std::size_t tried = 0;
-    for (const CoarsePose& pose : ranked_)
-    {
-      if (tried == fallback)
-        break;
-      if (std::any_of(top, top_end,
-                      [&](const CoarsePose& kept_pose)
-                      { return kept_pose.depth == pose.depth && kept_pose.yaw == pose.yaw; }))
-        continue;
-      ++tried;
-      found = fitPose(image, format, geometry, bore, pose, search, off_centre, found, best);
-    }
   }
   // A face the frame cuts near the camera keeps 25-50 of the 96 samples of its rim, and the 3-D fit
-  // asks for 30 in its band: the best covered are measured again, and the rims outside the one
-  // found, with as many samples in the frame as a whole rim has.
+  // asks for 30 in its band: with in_view_retry, where no pose fits, they are all measured again,
+  // and the rims outside the one found, with as many samples in the frame as a whole rim has.
   RimSearch measured = search;
-  if (!found && in_view_retry)
+  bool found = false;
+  for (int pass = 0; pass < (in_view_retry ? 2 : 1) && !found; ++pass)
   {
-    measured.samples_in_view = true;
+    measured.samples_in_view = search.samples_in_view || pass == 1;
     for (auto it = top; it != top_end; ++it)
       found = fitPose(image, format, geometry, bore, *it, measured, off_centre, found, best);
+    const bool refined_fits = found;
+    std::size_t tried = 0;
+    for (auto pose = ranked_.begin(); !refined_fits && pose != ranked_.end() && tried < fallback; ++pose)
+    {
+      if (std::any_of(top, top_end,
+                      [&](const CoarsePose& kept_pose)
+                      { return kept_pose.depth == pose->depth && kept_pose.yaw == pose->yaw; }))
+        continue;
+      ++tried;
+      found = fitPose(image, format, geometry, bore, *pose, measured, off_centre, found, best);
+    }
   }
   if (found)
   {
