@@ -70,6 +70,13 @@ public:
   {
     return in_frame_;
   }
+  /// Whether the last measure() took fewer samples than its rim has at the sample spacing (capped
+  /// by search.max_samples) and some of them lay outside the frame: sampled as densely in view as
+  /// a whole rim (RimSearch::samples_in_view) it would have more inside.
+  bool sparseInView() const
+  {
+    return sparse_in_view_;
+  }
   /// The last successful measure()'s rim over its prediction: the scale of the fit (1 + e).
   double fittedScale() const
   {
@@ -131,6 +138,7 @@ private:
   PixelFormat levels_format_ = PixelFormat::kMono8;
   std::size_t levels_step_ = 0;
   std::size_t in_frame_ = 0;
+  bool sparse_in_view_ = false;
   double scale_ = 1.0;
 };
 

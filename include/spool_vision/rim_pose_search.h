@@ -161,6 +161,8 @@ private:
                  const RimSearch& search, double off_centre, RimPoseFit& best);
 
   MovingEdges moving_edges_;
+  /// Whether a rim measurePose() measured since searchYaws() began was MovingEdges::sparseInView()
+  bool sparse_in_view_ = false;
   RimPoseFit candidate_;
   std::vector<CoarsePose> coarse_;  ///< searchYaws()'s poses, in the order scanned
   std::vector<CoarsePose> ranked_;  ///< searchYaws()'s poses, best covered first (its fallback)

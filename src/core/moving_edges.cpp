@@ -425,6 +425,7 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
   on_rim_.clear();
   found_.clear();
   in_frame_ = 0;
+  sparse_in_view_ = false;
   keepLevelsOf(image, format);
   if (!(prediction.centre.z > 0.01) || !(prediction.radius > 0.0))
     return false;
@@ -437,12 +438,13 @@ bool MovingEdges::measure(const cv::Mat& image, PixelFormat format, const RimPre
                                                   circumference / (2.0 * kPi), image.size())
                              : 1.0;
   const double cap = std::clamp(search.max_samples, kMinSamples, kMaxSamples) / std::max(in_view, kMinInViewShare);
-  const int count = std::clamp(static_cast<int>(circumference / kSampleSpacing), kMinSamples,
-                               std::max(kMinSamples, static_cast<int>(cap)));
+  const int spaced = static_cast<int>(circumference / kSampleSpacing);
+  const int count = std::clamp(spaced, kMinSamples, std::max(kMinSamples, static_cast<int>(cap)));
   if (!project(prediction, count))
     return false;
   const std::size_t in_frame = searchNormals(image, format, search);
   in_frame_ = in_frame;
+  sparse_in_view_ = count < spaced && in_frame < static_cast<std::size_t>(count);
   return fit(image.size(), in_frame, search.max_band_share, rim);
 }
 

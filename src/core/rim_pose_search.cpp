@@ -26,8 +26,10 @@ bool RimPoseSearch::measurePose(const cv::Mat& image, PixelFormat format, const 
   const bool facing = !(std::isfinite(axis[0]) && std::isfinite(axis[1]) && std::isfinite(axis[2]));
   const cv::Vec3d start = facing ? cv::Vec3d(0.0, 0.0, 1.0) : axis;
   Circle rim;
-  if (!moving_edges_.measure(image, format, RimPrediction{position, start, 0.5 * geometry.flangeDiameter()}, search,
-                             rim))
+  const bool measured = moving_edges_.measure(
+      image, format, RimPrediction{position, start, 0.5 * geometry.flangeDiameter()}, search, rim);
+  sparse_in_view_ = sparse_in_view_ || moving_edges_.sparseInView();
+  if (!measured)
     return false;
   // From the depth at which the prediction's size matches the edges' (the rim fit's first band is
   // a few px: a rim 7% larger than predicted lies outside it).
@@ -130,7 +132,9 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
   // and the rims outside the one found, with as many samples in the frame as a whole rim has.
   RimSearch measured = search;
   bool found = false;
-  for (int pass = 0; pass < (in_view_retry ? 2 : 1) && !found; ++pass)
+  sparse_in_view_ = false;
+  // (A retry where no rim was cut short would measure the same samples again.)
+  for (int pass = 0; pass < (in_view_retry ? 2 : 1) && !found && (pass == 0 || sparse_in_view_); ++pass)
   {
     measured.samples_in_view = search.samples_in_view || pass == 1;
     for (auto it = top; it != top_end; ++it)

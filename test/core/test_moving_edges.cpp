@@ -138,6 +138,32 @@ TEST(MovingEdges, ARimCutByTheFrameIsSampledAsDenselyInViewAsAWholeOneWhenAsked)
   EXPECT_GT(dense.score, 0.9);
 }
 
+TEST(MovingEdges, OnlyARimCutByTheFrameAndSampledUnderItsSpacingIsSparseInView)
+{
+  RimSearch search = searchOf(9.0);
+  Circle rim;
+  // Cut by the frame at 55 cm (640x480): 96 samples of the ~250 its spacing gives, a third outside.
+  const DrawnSpool cut = spoolAt(kVga, 0.55, 0.0, 0.03);
+  MovingEdges edges = edgesFor(kVga);
+  ASSERT_TRUE(edges.measure(drawScene({640, 480}, {cut}), PixelFormat::kBgr8, predictionOf(cut, 0.0, {}), search, rim));
+  EXPECT_TRUE(edges.sparseInView());
+  // Whole in the frame at 1 m: capped too, but every sample is inside.
+  const DrawnSpool whole = spoolAt(kVga, 1.0, 0.0, 0.0);
+  ASSERT_TRUE(
+      edges.measure(drawScene({640, 480}, {whole}), PixelFormat::kBgr8, predictionOf(whole, 0.0, {}), search, rim));
+  EXPECT_FALSE(edges.sparseInView());
+  // Cut at 160x120: its ~80 samples at the spacing are all taken.
+  const CameraIntrinsics qqvga = CameraIntrinsics::thesisDefault(160, 120);
+  const DrawnSpool small = spoolAt(qqvga, 0.55, 0.0, 0.03);
+  MovingEdges small_edges = edgesFor(qqvga);
+  const RimPrediction small_rim{{(small.x - qqvga.cx) * 0.55 / qqvga.fx, (small.y - qqvga.cy) * 0.55 / qqvga.fy, 0.55},
+                                {0.0, 0.0, 1.0},
+                                kRimRadius};
+  ASSERT_TRUE(small_edges.measure(drawScene({160, 120}, {small}), PixelFormat::kBgr8, small_rim, searchOf(3.0), rim));
+  EXPECT_LT(rim.visible_fraction, 0.9);
+  EXPECT_FALSE(small_edges.sparseInView());
+}
+
 TEST(MovingEdges, EveryPixelFormatGivesTheSameRim)
 {
   const DrawnSpool spool = spoolAt(kVga, 0.8, -0.03, 0.02);
