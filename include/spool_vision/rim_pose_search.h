@@ -146,11 +146,12 @@ private:
     double yaw = 0.0;    ///< rad, the level axis's atan2(x, z)
   };
 
-  /// measurePose() at the coarse `pose` (its score positive) about `bore`'s ray: true where a rim
-  /// was fitted before (`found`) or now; the fit replaces `best` where none was found before or it
-  /// has more support.
+  /// measurePose() at the coarse `pose` (its score positive) on `bore`'s `ray` (z = 1): true where
+  /// a rim was fitted before (`found`) or now; the fit replaces `best` where none was found before
+  /// or it has more support.
   bool fitPose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, const cv::Point2d& bore,
-               const CoarsePose& pose, const RimSearch& search, double off_centre, bool found, RimPoseFit& best);
+               const cv::Point3d& ray, const CoarsePose& pose, const RimSearch& search, double off_centre, bool found,
+               RimPoseFit& best);
   /// Whether `outer` replaces `inner` as the flange: nearer by half a depth step (the moving edges
   /// reach back to the inner rim from one step out) and with kOuterSupport of its support.
   static bool outside(const RimPoseFit& outer, const RimPoseFit& inner);

@@ -116,17 +116,6 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
           std::swap(pose, *it);
     }
   }
-  // The rim borders its own back flange along a third of it and covers fewer of its coarse samples
-  // than the rib rings inside it, which the 3-D fit refuses: where none of the best covered fits,
-  // the next `fallback` best are fitted. Best covered first, equal scores in the order scanned
-  // (depth, then yaw, rising).
-  if (fallback > 0)
-  {
-    ranked_.assign(coarse_.begin(), coarse_.end());
-    std::sort(ranked_.begin(), ranked_.end(),
-              [](const CoarsePose& a, const CoarsePose& b)
-              { return std::tie(b.score, a.depth, a.yaw) < std::tie(a.score, b.depth, b.yaw); });
-  }
   // A face the frame cuts near the camera keeps 25-50 of the 96 samples of its rim, and the 3-D fit
   // asks for 30 in its band: with in_view_retry, where no pose fits, they are all measured again,
   // and the rims outside the one found, with as many samples in the frame as a whole rim has.
@@ -138,17 +127,28 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
   {
     measured.samples_in_view = search.samples_in_view || pass == 1;
     for (auto it = top; it != top_end; ++it)
-      found = fitPose(image, format, geometry, bore, *it, measured, off_centre, found, best);
-    const bool refined_fits = found;
+      found = fitPose(image, format, geometry, bore, ray, *it, measured, off_centre, found, best);
+    if (found || fallback == 0)
+      continue;
+    // The rim borders its own back flange along a third of it and covers fewer of its coarse
+    // samples than the rib rings inside it, which the 3-D fit refuses: the next `fallback` best are
+    // fitted. Best covered first, equal scores in the order scanned (depth, then yaw, rising).
+    if (pass == 0)
+    {
+      ranked_.assign(coarse_.begin(), coarse_.end());
+      std::sort(ranked_.begin(), ranked_.end(),
+                [](const CoarsePose& a, const CoarsePose& b)
+                { return std::tie(b.score, a.depth, a.yaw) < std::tie(a.score, b.depth, b.yaw); });
+    }
     std::size_t tried = 0;
-    for (auto pose = ranked_.begin(); !refined_fits && pose != ranked_.end() && tried < fallback; ++pose)
+    for (auto pose = ranked_.begin(); pose != ranked_.end() && tried < fallback; ++pose)
     {
       if (std::any_of(top, top_end,
                       [&](const CoarsePose& kept_pose)
                       { return kept_pose.depth == pose->depth && kept_pose.yaw == pose->yaw; }))
         continue;
       ++tried;
-      found = fitPose(image, format, geometry, bore, *pose, measured, off_centre, found, best);
+      found = fitPose(image, format, geometry, bore, ray, *pose, measured, off_centre, found, best);
     }
   }
   if (found)
@@ -178,13 +178,11 @@ bool RimPoseSearch::searchYaws(const cv::Mat& image, PixelFormat format, const S
 }
 
 bool RimPoseSearch::fitPose(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                            const cv::Point2d& bore, const CoarsePose& pose, const RimSearch& search, double off_centre,
-                            bool found, RimPoseFit& best)
+                            const cv::Point2d& bore, const cv::Point3d& ray, const CoarsePose& pose,
+                            const RimSearch& search, double off_centre, bool found, RimPoseFit& best)
 {
   if (!(pose.score > 0.0))
     return found;
-  const CameraIntrinsics& camera = geometry.camera();
-  const cv::Point3d ray((bore.x - camera.cx) / camera.fx, (bore.y - camera.cy) / camera.fy, 1.0);
   if (!measurePose(image, format, geometry, bore, ray * pose.depth,
                    cv::Vec3d(std::sin(pose.yaw), 0.0, std::cos(pose.yaw)), search, off_centre, candidate_) ||
       (found && !(candidate_.support > best.support)))

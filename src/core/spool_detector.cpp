@@ -1265,9 +1265,9 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
         (contrast < least && !(hole.score >= kSharpBoreScore && litBoreContrast({hole.x, hole.y}, hole.r) >= least)))
       continue;
     ++searched;
-    // With no spool taken, a face the frame cuts is searched densely in view too (retried so in
-    // every pose search, rib rings cut by the frame replaced right spools: hard seed 43 #37 at
-    // 320x240, 103 #16 and packed 43 #17 at 640x480).
+    // With no spool taken, a face the frame cuts is searched densely in view too. (Retried in every
+    // pose search, rib rings cut by the frame replaced right spools: hard seed 43 #37 at 320x240,
+    // 103 #16 and packed 43 #17 at 640x480; here where a spool was taken, no frame changed.)
     if (!searchRimAbout(image, format, geometry, hole, kBoreRimFallbackPoses, axis_yaw, !std::isfinite(bound)) ||
         oblique_rim_.support < kBoreAgreedSupport || !geometry.atPullerLevel(oblique_rim_.rim, hole.y) ||
         (cutByBorder(oblique_rim_.rim) && hole.score < params_.matcher.cut_flange_hole_score) ||
