@@ -244,7 +244,10 @@ private:
   /// or found about a bore whose size, measured at the size the rim gives it, agrees with the rim
   /// (bore_agrees_at_own_size_) and its flange kSecondSearchRimScore: a dark bore seen 34-38 deg off
   /// its axis scores 0.5-0.6 as a free circle (oblique seed 19 #96, seed 89 #64 at 640x480), while
-  /// a rib ring's bore measures larger than the ring allows.
+  /// a rib ring's bore measures larger than the ring allows,
+  /// or found about a bore too small to measure (small_bore_spool_taken_): such a spool is sought
+  /// only in the frame's last search, which is the second one where the first filled the edge
+  /// budget, and its bore can pass none of the tests above.
   bool takesSecondSearch(const SpoolDetection& second) const;
   /// The most edges kept from a region of `size` (edge_budget; kRetryBudgetScale times it in the
   /// second search).
@@ -466,16 +469,18 @@ private:
   /// measures 3-6 px, under the bores searched so far (kMinKnownSizeRadius), and its outline is no
   /// circle that leads to it. Bores from the hole search's least radius up to kMinKnownSizeRadius
   /// are sought about the first kObliqueCandidates of `flanges` in candidate_order_ (within
-  /// kObliqueBoreShift of their size of their centres, in `rows`, px), those under kSharpHoleScore or
+  /// kObliqueBoreShift of their size of their centres, in `rows`, px), those under weak_hole_score
+  /// (a 3-4 px bore's rim, blurred, scores 0.55-0.7: oblique seed 131 #251 of 300 at 160x120) or
   /// inside a larger bore of holes_ (the lit lens seen through it: hard seed 7 #10, seed 89 #1 at
   /// 160x120) left out, and the kBoreLedHoles nearest the reference searched as spoolAboutHoles()
-  /// does. True with the spool in `result` (undistorted px, its rim in oblique_rim_).
+  /// does. True with the spool in `result` (undistorted px, its rim in oblique_rim_), and
+  /// small_bore_spool_taken_ set.
   bool smallBoreSpool(const cv::Mat& image, PixelFormat format, const cv::Point2d& reference,
                       const std::vector<Circle>& flanges, const HoughSearch& hole_search, const cv::Rect2d& rows,
                       SpoolDetection& result);
-  /// holes_ less those of `below` px and up, those under kSharpHoleScore and those inside a bore of
+  /// holes_ less those of `below` px and up, those scoring under `least` and those inside a bore of
   /// larger_bores_ (its lit lens).
-  void keepSharpBoresOutside(double below);
+  void keepSharpBoresOutside(double below, double least);
   /// Where no spool was found: the first kObliqueCandidates flange candidates nearest the reference
   /// (ConcentricMatcher::targetCost()) searched for a bore in their concentric window larger than
   /// the match allows them (1 + hole_ratio_tolerance times the size they give it, up to
@@ -775,6 +780,9 @@ private:
   /// The whole frame's search replaced its weak match by the rim about its bore
   /// (rimAboutWeakMatch()): takesSecondSearch() takes that spool.
   bool weak_match_rim_taken_ = false;
+  /// The whole frame's search took its spool about a bore too small to measure (smallBoreSpool()):
+  /// takesSecondSearch() takes that spool.
+  bool small_bore_spool_taken_ = false;
   std::vector<Circle> larger_bores_;  ///< keepSharpBoresOutside()'s bores of measurable size
   std::vector<Circle> own_bores_;     ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;   ///< measureLens()'s scratch

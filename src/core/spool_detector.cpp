@@ -176,6 +176,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   {
     bore_agrees_at_own_size_ = false;
     weak_match_rim_taken_ = false;
+    small_bore_spool_taken_ = false;
   }
   bool along_rim = window && window->rim.radius > 0.0;
   bool budget_bound = false;
@@ -337,6 +338,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   {
     bore_agrees_at_own_size_ = false;
     weak_match_rim_taken_ = false;
+    small_bore_spool_taken_ = false;
   }
   if (inner_ring)
   {
@@ -761,7 +763,7 @@ bool SpoolDetector::takesSecondSearch(const SpoolDetection& second) const
   const bool sharp_bore = second.hole.r >= kSecondSearchBoreRadius && second.hole.score >= kSecondSearchBoreScore &&
                           second.flange.score >= kSecondSearchRimScore;
   const bool agreeing_bore = bore_agrees_at_own_size_ && second.flange.score >= kSecondSearchRimScore;
-  return solid || sharp_bore || agreeing_bore || weak_match_rim_taken_;
+  return solid || sharp_bore || agreeing_bore || weak_match_rim_taken_ || small_bore_spool_taken_;
 }
 
 std::size_t SpoolDetector::edgeBudget(cv::Size size) const
@@ -856,7 +858,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
         larger_bores_.clear();
         std::copy_if(holes_.begin(), holes_.end(), std::back_inserter(larger_bores_),
                      [](const Circle& bore) { return bore.r >= kMinKnownSizeRadius; });
-        keepSharpBoresOutside(kMinKnownSizeRadius);
+        keepSharpBoresOutside(kMinKnownSizeRadius, kSharpHoleScore);
         orderByDistanceTo(reference, holes_);
         if (spoolAboutHoles(image, format, reference, bound, hole_search.r_min, kBoreLedHoles, result))
           return true;
@@ -944,22 +946,25 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    keepSharpBoresOutside(std::numeric_limits<double>::infinity());
+    keepSharpBoresOutside(std::numeric_limits<double>::infinity(), params_.matcher.weak_hole_score);
     orderByDistanceTo(reference, holes_);
     if (spoolAboutHoles(image, format, reference, kNoMatch, hole_search.r_min, kBoreLedHoles, result))
+    {
+      small_bore_spool_taken_ = true;
       return true;
+    }
   }
   return false;
 }
 
-void SpoolDetector::keepSharpBoresOutside(double below)
+void SpoolDetector::keepSharpBoresOutside(double below, double least)
 {
-  // Only sharp rims: a faint ring that small is any dark speck of the face (oblique seed 103 #109:
-  // a neighbour's rim about one, where the target was not found).
+  // Only rims scoring `least`: a fainter ring that small is any dark speck of the face (oblique seed
+  // 103 #109: a neighbour's rim about one, where the target was not found).
   holes_.erase(std::remove_if(holes_.begin(), holes_.end(),
                               [&](const Circle& hole)
                               {
-                                return !(hole.r < below) || hole.score < kSharpHoleScore ||
+                                return !(hole.r < below) || hole.score < least ||
                                        std::any_of(
                                            larger_bores_.begin(), larger_bores_.end(),
                                            [&](const Circle& bore)
