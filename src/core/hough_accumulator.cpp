@@ -4,6 +4,8 @@
 #include <array>
 #include <bitset>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 
@@ -225,17 +227,19 @@ SPOOL_VISION_PIXEL_LOOP std::size_t countAtLeast(const int* m, int count, int t2
   return above;
 }
 
-// Pixels a block extractRaw() passes over when none reaches the threshold.
+// Pixels extractRaw() passes over in one test when none reaches the threshold: one 64-bit word
+// of markAtLeast()'s flags, the lowest byte the leftmost pixel.
 constexpr int kEdgeBlock = 8;
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "extractRaw() reads its flags as little-endian words");
 
-// Whether any of m[0..kEdgeBlock) is at least t2 (a fixed-length loop: vector compares).
-inline bool anyAtLeast(const int* m, int t2)
+// out[x] = 1 where m[x] reaches t2, else 0, for x in [0, count) (a per-pixel loop: AVX2 where the
+// CPU has it).
+SPOOL_VISION_PIXEL_LOOP void markAtLeast(const int* m, int count, int t2, std::uint8_t* out)
 {
-  int any = 0;
-  for (int k = 0; k < kEdgeBlock; ++k)
-    any |= m[k] >= t2 ? 1 : 0;
-  return any != 0;
+  for (int x = 0; x < count; ++x)
+    out[x] = m[x] >= t2 ? 1 : 0;
 }
+
 // Unit-circle samples computed once, cosines and sines apart: visibleRimFraction() runs for every
 // radius bin of every peak, and its loops vectorise over plain arrays.
 struct UnitCircle
@@ -468,23 +472,26 @@ void EdgeDetector::extractRaw(double threshold, const cv::Rect& raw, std::size_t
   const float t = static_cast<float>(std::max(threshold, 1e-3)) * kSobelFullScale;
   const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();
+  // A row's flags, then a whole word of zeros past its end.
+  at_threshold_.assign(static_cast<std::size_t>(std::max(area.width, 0) + kEdgeBlock), 0);
+  std::uint8_t* const flags = at_threshold_.data();
   for (int y = area.y; y < area.y + area.height; ++y)
   {
     const short* gxr = gx_.ptr<short>(y);
     const short* gyr = gy_.ptr<short>(y);
     const int* m = mag_.ptr<int>(y);
-    const int end = area.x + area.width;
-    for (int block = area.x; block < end; block += kEdgeBlock)
+    markAtLeast(m + area.x, area.width, t2, flags);
+    for (int block = 0; block < area.width; block += kEdgeBlock)
     {
-      // Most pixels are under the threshold: a block of them is passed over in one compare.
-      const int stop = std::min(block + kEdgeBlock, end);
-      if (stop - block == kEdgeBlock && !anyAtLeast(m + block, t2))
-        continue;
-      for (int x = block; x < stop; ++x)
+      // Most pixels are under the threshold: a word of their flags is passed over in one test, and
+      // the others are visited in order, lowest set byte first.
+      std::uint64_t word = 0;
+      std::memcpy(&word, flags + block, sizeof(word));
+      while (word != 0)
       {
+        const int x = area.x + block + __builtin_ctzll(word) / 8;
+        word &= word - 1;
         const int c2 = m[x];
-        if (c2 < t2)
-          continue;
         // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood: a component
         // counts where it is over sin(22.5 deg) of the magnitude, compared in squares (most pixels
         // past the threshold are suppressed, and need no root or division).
