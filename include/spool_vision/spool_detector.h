@@ -588,14 +588,18 @@ private:
   /// (searchRimAbout(): RimPoseSearch at the depths the hole's size gives) and taken as the flange
   /// (takeSpoolAboutBore()) where it keeps kWeakMatchRimSupport of its samples, agrees with the
   /// hole's size (boreAgreesWith()) and lies at the puller's level. Unless the result is the second
-  /// search's and would be dropped (takesSecondSearch()), only a result measureObliqueRim() did not
-  /// judge (`rim_measured` false) is searched, and the rim must also be seen off its axis
+  /// search's and would be dropped (takesSecondSearch()), the rim must also be seen off its axis
   /// (offAxis()) and, where the result's own pose's rim can be measured, be supported by
-  /// kObliqueRimMargin more than it. measureObliqueRim() leaves these: at 160x120 a rim has under
-  /// kObliqueRimMinRadius and too few samples for its own pose's fit, and seen 25-40 deg off its
-  /// axis the Hough circle lies between the ellipse's semi-axes or about the back flange's
-  /// silhouette (depth 5-25% off) or scores too little to be taken at all. True where the rim
-  /// replaced the flange; `result` in undistorted px.
+  /// kObliqueRimMargin more than it. Where measureObliqueRim() judged the result's rim
+  /// (`rim_measured`), only one its own pose supports by kObliqueRimSupport is searched, and the
+  /// rim off the axis need be supported only kMeasuredRimMargin more: a weak circle about an
+  /// ellipse seen 30-35 deg off its axis keeps 0.6-0.75 of its own pose's samples (the circle lies
+  /// within their reach), the ellipse 0.8 (oblique seed 131 #0 of 150 at 320x240: a round rim 13
+  /// deg off its axis where the spool is seen 35 deg off). measureObliqueRim() leaves the others:
+  /// at 160x120 a rim has under kObliqueRimMinRadius and too few samples for its own pose's fit,
+  /// and seen 25-40 deg off its axis the Hough circle lies between the ellipse's semi-axes or about
+  /// the back flange's silhouette (depth 5-25% off) or scores too little to be taken at all. True
+  /// where the rim replaced the flange; `result` in undistorted px.
   bool rimAboutWeakMatch(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry, bool rim_measured,
                          SpoolDetection& result);
   /// The least support of the rim rimAboutWeakMatch() takes. Oblique sets of seeds 7-131 at all
@@ -643,6 +647,8 @@ private:
   static constexpr std::size_t kObliqueRimMinSamples = 48;
   /// ... and the search's rim replaces it only with this much more support.
   static constexpr double kObliqueRimMargin = 0.15;
+  /// rimAboutWeakMatch()'s margin over a weak circle's own pose that measureObliqueRim() judged.
+  static constexpr double kMeasuredRimMargin = 0.05;
   /// ... and with at least this support (a rim cut by the border whose bore was found off centre
   /// gave a rib ring at 0.51; the oblique rims replaced 0.6-0.85).
   static constexpr double kObliqueRimMinSupport = 0.55;

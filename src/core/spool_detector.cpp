@@ -513,18 +513,23 @@ bool SpoolDetector::rimAboutWeakMatch(const cv::Mat& image, PixelFormat format, 
                                       bool rim_measured, SpoolDetection& result)
 {
   // The second search's spool that would be dropped (takesSecondSearch()) has nothing to lose;
-  // any other result is replaced only where measureObliqueRim() could not judge its rim, by a rim
-  // seen off its axis that its own pose's rim, where measured, supports less by kObliqueRimMargin
-  // (a frontal circle is as well measured).
+  // any other result is replaced by a rim seen off its axis that its own pose's rim, where
+  // measured, supports less by kObliqueRimMargin (a frontal circle is as well measured).
   const bool dropped = search_.second && !takesSecondSearch(result);
-  if (rim_measured && !dropped)
-    return false;
   const Circle hole = result.hole;
+  const bool own_measured =
+      !dropped && rim_pose_search_.measure(image, format, geometry, {hole.x, hole.y}, result.position, result.axis,
+                                           obliqueRimSearch(result.flange.r_vertical), own_rim_);
+  // A rim measureObliqueRim() judged is searched again only where its own pose supports it, and a
+  // rim off the axis about the same bore replaces it on a smaller margin: the circle lies within the
+  // reach of the ellipse's samples. (Where it searched a rim its own pose did not support and took
+  // none, a rib ring inside the rim can keep more: packed_oblique seed 43 #86 at 640x480.)
+  if (rim_measured && !dropped && !(own_measured && own_rim_.support >= kObliqueRimSupport))
+    return false;
   const double least =
-      dropped || !rim_pose_search_.measure(image, format, geometry, {hole.x, hole.y}, result.position, result.axis,
-                                           obliqueRimSearch(result.flange.r_vertical), own_rim_)
-          ? kWeakMatchRimSupport
-          : std::max(kWeakMatchRimSupport, own_rim_.support + kObliqueRimMargin);
+      own_measured ? std::max(kWeakMatchRimSupport,
+                              own_rim_.support + (rim_measured && !dropped ? kMeasuredRimMargin : kObliqueRimMargin))
+                   : kWeakMatchRimSupport;
   // No rim has more than all of its samples.
   if (least > 1.0)
     return false;
