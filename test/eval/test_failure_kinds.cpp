@@ -932,13 +932,13 @@ TEST(FailureKinds, ABlurredSmallBoreLeadsToTheObliqueSpoolAt160x120)
 }
 
 // Seen 30-35 deg off its axis, a spool's rim was taken as a weak round Hough circle about its bore,
-// 13 deg off its axis by its own pose, whose rim the moving edges supported 0.6-0.75 (the circle
-// lies within the reach of the ellipse's samples): measureObliqueRim() judged it measured, and
-// the rim's ellipse about the same bore, supported 0.8, was never searched. Reported 8-12% off
+// 6-25 deg off its axis by its own pose, whose rim the moving edges supported 0.6-0.75 (the circle
+// lies within the reach of the ellipse's samples): measureObliqueRim() judged it measured, and the
+// rim's ellipse about the same bore, supported 0.8-0.9, was never searched. Reported 8-12% off
 // centre or in size.
 TEST(FailureKinds, AWeakRoundCircleAboutAnObliqueRimGivesWayToTheRimsEllipse)
 {
-  for (const auto& [seed, index, count, width] : {std::tuple{131, 0, 150, 320}, std::tuple{43, 62, 100, 320},
+  for (const auto& [seed, index, count, width] : {std::tuple{131, 31, 300, 160}, std::tuple{131, 0, 150, 320},
                                                   std::tuple{131, 8, 150, 640}, std::tuple{131, 0, 60, 1280}})
     expectTargetFlange(seed, index, count, FrameSet::kOblique, width, width == 1280 ? 720 : 0);
 }
