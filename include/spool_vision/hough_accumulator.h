@@ -344,9 +344,10 @@ private:
   /// change of shape: the cells live in buffers that only grow.
   std::vector<float> votes_data_;
   std::vector<float> smoothed_data_;
-  cv::Point2d origin_;      ///< image position of cell (0,0)
-  HoughSearch voted_;       ///< the last detect()'s search (detectEitherPolarity())
-  bool has_votes_ = false;  ///< whether votes_ holds its votes
+  std::vector<std::uint8_t> peak_flags_;  ///< findPeaks()'s row: 1 at a cell that is a peak
+  cv::Point2d origin_;                    ///< image position of cell (0,0)
+  HoughSearch voted_;                     ///< the last detect()'s search (detectEitherPolarity())
+  bool has_votes_ = false;                ///< whether votes_ holds its votes
   double cell_ = 1.0;
   std::vector<Peak> peaks_;
   std::vector<float> histogram_;

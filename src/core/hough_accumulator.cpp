@@ -227,10 +227,27 @@ SPOOL_VISION_PIXEL_LOOP std::size_t countAtLeast(const int* m, int count, int t2
   return above;
 }
 
-// Pixels extractRaw() passes over in one test when none reaches the threshold: one 64-bit word
-// of markAtLeast()'s flags, the lowest byte the leftmost pixel.
-constexpr int kEdgeBlock = 8;
-static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "extractRaw() reads its flags as little-endian words");
+// Flags (0 or 1 per pixel or cell) passed over in one test where none is set: one 64-bit word, the
+// lowest byte the leftmost.
+constexpr int kFlagWord = 8;
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "forEachFlag() reads its flags as little-endian words");
+
+// Calls visit(x) for each x in [0, count) whose flag is set, in rising order; `flags` holds count
+// flags and then a word of zeros. Most pixels of a row are unflagged: a word of them costs one test.
+template <typename Visit>
+void forEachFlag(const std::uint8_t* flags, int count, Visit&& visit)
+{
+  for (int block = 0; block < count; block += kFlagWord)
+  {
+    std::uint64_t word = 0;
+    std::memcpy(&word, flags + block, sizeof(word));
+    while (word != 0)
+    {
+      visit(block + __builtin_ctzll(word) / 8);
+      word &= word - 1;
+    }
+  }
+}
 
 // out[x] = 1 where m[x] reaches t2, else 0, for x in [0, count) (a per-pixel loop: AVX2 where the
 // CPU has it).
@@ -238,6 +255,23 @@ SPOOL_VISION_PIXEL_LOOP void markAtLeast(const int* m, int count, int t2, std::u
 {
   for (int x = 0; x < count; ++x)
     out[x] = m[x] >= t2 ? 1 : 0;
+}
+
+// out[x] = 1 where row[x] is at least `floor` and a maximum of its 3x3 neighbourhood (up, row, down:
+// ties with the cells before it in scan order count, ties with those after it do not), for x in
+// [1, cols - 1); out[0] and out[cols - 1] are left as they are (a per-cell loop: AVX2 where the CPU
+// has it).
+SPOOL_VISION_PIXEL_LOOP void markPeaks(const float* up, const float* row, const float* down, int cols, float floor,
+                                       std::uint8_t* out)
+{
+  for (int x = 1; x + 1 < cols; ++x)
+  {
+    const float v = row[x];
+    // `&`, not `&&`: no branch per cell.
+    const bool peak = (v >= floor) & (v >= row[x - 1]) & (v > row[x + 1]) & (v >= up[x - 1]) & (v >= up[x]) &
+                      (v >= up[x + 1]) & (v > down[x - 1]) & (v > down[x]) & (v > down[x + 1]);
+    out[x] = peak ? 1 : 0;
+  }
 }
 
 // Unit-circle samples computed once, cosines and sines apart: visibleRimFraction() runs for every
@@ -473,7 +507,7 @@ void EdgeDetector::extractRaw(double threshold, const cv::Rect& raw, std::size_t
   const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();
   // A row's flags, then a whole word of zeros past its end.
-  at_threshold_.assign(static_cast<std::size_t>(std::max(area.width, 0) + kEdgeBlock), 0);
+  at_threshold_.assign(static_cast<std::size_t>(std::max(area.width, 0) + kFlagWord), 0);
   std::uint8_t* const flags = at_threshold_.data();
   for (int y = area.y; y < area.y + area.height; ++y)
   {
@@ -481,42 +515,36 @@ void EdgeDetector::extractRaw(double threshold, const cv::Rect& raw, std::size_t
     const short* gyr = gy_.ptr<short>(y);
     const int* m = mag_.ptr<int>(y);
     markAtLeast(m + area.x, area.width, t2, flags);
-    for (int block = 0; block < area.width; block += kEdgeBlock)
-    {
-      // Most pixels are under the threshold: a word of their flags is passed over in one test, and
-      // the others are visited in order, lowest set byte first.
-      std::uint64_t word = 0;
-      std::memcpy(&word, flags + block, sizeof(word));
-      while (word != 0)
-      {
-        const int x = area.x + block + __builtin_ctzll(word) / 8;
-        word &= word - 1;
-        const int c2 = m[x];
-        // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood: a component
-        // counts where it is over sin(22.5 deg) of the magnitude, compared in squares (most pixels
-        // past the threshold are suppressed, and need no root or division).
-        const int gx = gxr[x];
-        const int gy = gyr[x];
-        const float counts = 0.3827f * 0.3827f * static_cast<float>(c2);
-        const int sx = static_cast<float>(gx * gx) > counts ? (gx > 0 ? 1 : -1) : 0;
-        const int sy = static_cast<float>(gy * gy) > counts ? (gy > 0 ? 1 : -1) : 0;
-        const std::ptrdiff_t offset_next = sx + static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(step);
-        const int before2 = m[x - offset_next];
-        const int after2 = m[x + offset_next];
-        if (c2 < before2 || c2 <= after2)
-          continue;
-        const float c = std::sqrt(static_cast<float>(c2));
-        const float dx = static_cast<float>(gx) / c;
-        const float dy = static_cast<float>(gy) / c;
-        // Parabola through the three magnitudes puts the edge between pixels.
-        const float before = std::sqrt(static_cast<float>(before2));
-        const float after = std::sqrt(static_cast<float>(after2));
-        const float denom = before - 2.0f * c + after;
-        const float sub = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
-        edges.push_back({x + sub * sx, y + sub * sy, dx, dy});
-        strengths_.push_back(c2);
-      }
-    }
+    forEachFlag(flags, area.width,
+                [&](int column)
+                {
+                  const int x = area.x + column;
+                  const int c2 = m[x];
+                  // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood: a component
+                  // counts where it is over sin(22.5 deg) of the magnitude, compared in squares (most pixels
+                  // past the threshold are suppressed, and need no root or division).
+                  const int gx = gxr[x];
+                  const int gy = gyr[x];
+                  const float counts = 0.3827f * 0.3827f * static_cast<float>(c2);
+                  const int sx = static_cast<float>(gx * gx) > counts ? (gx > 0 ? 1 : -1) : 0;
+                  const int sy = static_cast<float>(gy * gy) > counts ? (gy > 0 ? 1 : -1) : 0;
+                  const std::ptrdiff_t offset_next =
+                      sx + static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(step);
+                  const int before2 = m[x - offset_next];
+                  const int after2 = m[x + offset_next];
+                  if (c2 < before2 || c2 <= after2)
+                    return;
+                  const float c = std::sqrt(static_cast<float>(c2));
+                  const float dx = static_cast<float>(gx) / c;
+                  const float dy = static_cast<float>(gy) / c;
+                  // Parabola through the three magnitudes puts the edge between pixels.
+                  const float before = std::sqrt(static_cast<float>(before2));
+                  const float after = std::sqrt(static_cast<float>(after2));
+                  const float denom = before - 2.0f * c + after;
+                  const float sub = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
+                  edges.push_back({x + sub * sx, y + sub * sy, dx, dy});
+                  strengths_.push_back(c2);
+                });
   }
   if (edges.size() > max_edges)
     keepStrongest(max_edges, edges);
@@ -720,26 +748,27 @@ void HoughAccumulator::findPeaks(const HoughSearch& search, int max_peaks, const
   }
   // A rim supported over min_score of min_visible_fraction, with votes spread over a few cells.
   const float floor_votes = static_cast<float>(2.0 * kPi * search.min_score * search.min_visible_fraction * 0.25);
+  // A row's flags (the first and last cells never set), then a whole word of zeros past its end.
+  peak_flags_.assign(static_cast<std::size_t>(smoothed_.cols + kFlagWord), 0);
   for (int y = 1; y + 1 < smoothed_.rows; ++y)
   {
     const float* up = smoothed_.ptr<float>(y - 1);
     const float* row = smoothed_.ptr<float>(y);
     const float* down = smoothed_.ptr<float>(y + 1);
-    for (int x = 1; x + 1 < smoothed_.cols; ++x)
-    {
-      const float v = row[x];
-      if (v < floor_votes || v < row[x - 1] || v <= row[x + 1] || v < up[x - 1] || v < up[x] || v < up[x + 1] ||
-          v <= down[x - 1] || v <= down[x] || v <= down[x + 1])
-        continue;
-      // Sub-cell centre from a parabola through the neighbours on each axis.
-      const float dxden = row[x - 1] - 2 * v + row[x + 1];
-      const float dyden = up[x] - 2 * v + down[x];
-      const float ox = dxden < 0 ? 0.5f * (row[x - 1] - row[x + 1]) / dxden : 0.0f;
-      const float oy = dyden < 0 ? 0.5f * (up[x] - down[x]) / dyden : 0.0f;
-      const cv::Point2d centre(origin_.x + (x + ox) * cell_, origin_.y + (y + oy) * cell_);
-      if (centres.empty() || centres.contains(centre))
-        peaks_.push_back({centre.x, centre.y, v});
-    }
+    markPeaks(up, row, down, smoothed_.cols, floor_votes, peak_flags_.data());
+    forEachFlag(peak_flags_.data(), smoothed_.cols,
+                [&](int x)
+                {
+                  const float v = row[x];
+                  // Sub-cell centre from a parabola through the neighbours on each axis.
+                  const float dxden = row[x - 1] - 2 * v + row[x + 1];
+                  const float dyden = up[x] - 2 * v + down[x];
+                  const float ox = dxden < 0 ? 0.5f * (row[x - 1] - row[x + 1]) / dxden : 0.0f;
+                  const float oy = dyden < 0 ? 0.5f * (up[x] - down[x]) / dyden : 0.0f;
+                  const cv::Point2d centre(origin_.x + (x + ox) * cell_, origin_.y + (y + oy) * cell_);
+                  if (centres.empty() || centres.contains(centre))
+                    peaks_.push_back({centre.x, centre.y, v});
+                });
   }
   std::sort(peaks_.begin(), peaks_.end(), [](const Peak& a, const Peak& b) { return a.votes > b.votes; });
   // Greedy suppression: two centres closer than half the smallest radius are one circle.
