@@ -282,8 +282,7 @@ SPOOL_VISION_PIXEL_LOOP void markEdges(const int* up, const int* m, const int* d
     const int before = sx > 0 ? back_left : (sx < 0 ? back_right : back_mid);
     const int after = sx > 0 ? on_right : (sx < 0 ? on_left : on_mid);
     // `&`, not `&&`: no branch per pixel.
-    const bool edge = (c2 >= t2) & (c2 >= before) & (c2 > after);
-    out[x] = edge ? 1 : 0;
+    out[x] = (c2 >= t2) & (c2 >= before) & (c2 > after) ? 1 : 0;
   }
 }
 
