@@ -100,7 +100,7 @@ private:
   cv::Rect computed_;  ///< where gx_, gy_ and mag_ hold this frame's gradients (all of it but the border)
   std::vector<short> column_sum_, column_diff_;   ///< one row's vertical Sobel taps, padded by 1
   std::vector<int> strengths_;                    ///< squared gradient magnitude of each extracted edge
-  std::vector<std::uint8_t> edge_flags_;          ///< extractRaw()'s row: 1 at a pixel that is an edge
+  std::vector<std::uint8_t> at_threshold_;        ///< extractRaw()'s row: 1 where the threshold is reached
   std::vector<int> selection_;                    ///< scratch for the budget's nth_element
   std::vector<std::size_t> magnitude_histogram_;  ///< boundedThreshold()'s, kMagnitudeBins
 };

@@ -249,41 +249,12 @@ void forEachFlag(const std::uint8_t* flags, int count, Visit&& visit)
   }
 }
 
-// The 8-neighbourhood step (sx, sy) along a gradient (gx, gy) of squared magnitude c2: a component
-// counts where it is over sin(22.5 deg) of the magnitude, compared in squares (no root or division).
-inline void gradientStep(int gx, int gy, int c2, int& sx, int& sy)
-{
-  const float counts = 0.3827f * 0.3827f * static_cast<float>(c2);
-  sx = static_cast<float>(gx * gx) > counts ? (gx > 0 ? 1 : -1) : 0;
-  sy = static_cast<float>(gy * gy) > counts ? (gy > 0 ? 1 : -1) : 0;
-}
-
-// out[x] = 1 where m[x] reaches t2 and is a maximum along its gradient (gx, gy) quantised to the
-// 8-neighbourhood (gradientStep(): not under the magnitude one step back, over the one a step on),
-// else 0, for x in [0, count); up and down are the rows above and below, and every row is read
-// from x - 1 to x + 1 (a per-pixel loop, each neighbour chosen without a branch: AVX2 where the CPU
-// has it).
-SPOOL_VISION_PIXEL_LOOP void markEdges(const int* up, const int* m, const int* down, const short* gx, const short* gy,
-                                       int count, int t2, std::uint8_t* out)
+// out[x] = 1 where m[x] reaches t2, else 0, for x in [0, count) (a per-pixel loop: AVX2 where the
+// CPU has it).
+SPOOL_VISION_PIXEL_LOOP void markAtLeast(const int* m, int count, int t2, std::uint8_t* out)
 {
   for (int x = 0; x < count; ++x)
-  {
-    const int c2 = m[x];
-    int sx = 0;
-    int sy = 0;
-    gradientStep(gx[x], gy[x], c2, sx, sy);
-    // The magnitudes one step back (row y - sy, column x - sx) and one step on (y + sy, x + sx).
-    const int back_left = sy > 0 ? up[x - 1] : (sy < 0 ? down[x - 1] : m[x - 1]);
-    const int back_mid = sy > 0 ? up[x] : (sy < 0 ? down[x] : m[x]);
-    const int back_right = sy > 0 ? up[x + 1] : (sy < 0 ? down[x + 1] : m[x + 1]);
-    const int on_left = sy > 0 ? down[x - 1] : (sy < 0 ? up[x - 1] : m[x - 1]);
-    const int on_mid = sy > 0 ? down[x] : (sy < 0 ? up[x] : m[x]);
-    const int on_right = sy > 0 ? down[x + 1] : (sy < 0 ? up[x + 1] : m[x + 1]);
-    const int before = sx > 0 ? back_left : (sx < 0 ? back_right : back_mid);
-    const int after = sx > 0 ? on_right : (sx < 0 ? on_left : on_mid);
-    // `&`, not `&&`: no branch per pixel.
-    out[x] = (c2 >= t2) & (c2 >= before) & (c2 > after) ? 1 : 0;
-  }
+    out[x] = m[x] >= t2 ? 1 : 0;
 }
 
 // out[x] = 1 where row[x] is at least `floor` and a maximum of its 3x3 neighbourhood (up, row, down:
@@ -536,34 +507,39 @@ void EdgeDetector::extractRaw(double threshold, const cv::Rect& raw, std::size_t
   const int t2 = boundedThreshold(area, static_cast<int>(t * t), max_edges);
   const size_t step = mag_.step1();
   // A row's flags, then a whole word of zeros past its end.
-  edge_flags_.assign(static_cast<std::size_t>(std::max(area.width, 0) + kFlagWord), 0);
-  std::uint8_t* const flags = edge_flags_.data();
+  at_threshold_.assign(static_cast<std::size_t>(std::max(area.width, 0) + kFlagWord), 0);
+  std::uint8_t* const flags = at_threshold_.data();
   for (int y = area.y; y < area.y + area.height; ++y)
   {
     const short* gxr = gx_.ptr<short>(y);
     const short* gyr = gy_.ptr<short>(y);
     const int* m = mag_.ptr<int>(y);
-    markEdges(mag_.ptr<int>(y - 1) + area.x, m + area.x, mag_.ptr<int>(y + 1) + area.x, gxr + area.x, gyr + area.x,
-              area.width, t2, flags);
-    // Most pixels are no edge: the few that are get their root, direction and sub-pixel place.
+    markAtLeast(m + area.x, area.width, t2, flags);
     forEachFlag(flags, area.width,
                 [&](int column)
                 {
                   const int x = area.x + column;
                   const int c2 = m[x];
+                  // Non-maximum suppression along the gradient, quantised to the 8-neighbourhood: a component
+                  // counts where it is over sin(22.5 deg) of the magnitude, compared in squares (most pixels
+                  // past the threshold are suppressed, and need no root or division).
                   const int gx = gxr[x];
                   const int gy = gyr[x];
-                  int sx = 0;
-                  int sy = 0;
-                  gradientStep(gx, gy, c2, sx, sy);
+                  const float counts = 0.3827f * 0.3827f * static_cast<float>(c2);
+                  const int sx = static_cast<float>(gx * gx) > counts ? (gx > 0 ? 1 : -1) : 0;
+                  const int sy = static_cast<float>(gy * gy) > counts ? (gy > 0 ? 1 : -1) : 0;
                   const std::ptrdiff_t offset_next =
                       sx + static_cast<std::ptrdiff_t>(sy) * static_cast<std::ptrdiff_t>(step);
+                  const int before2 = m[x - offset_next];
+                  const int after2 = m[x + offset_next];
+                  if (c2 < before2 || c2 <= after2)
+                    return;
                   const float c = std::sqrt(static_cast<float>(c2));
                   const float dx = static_cast<float>(gx) / c;
                   const float dy = static_cast<float>(gy) / c;
                   // Parabola through the three magnitudes puts the edge between pixels.
-                  const float before = std::sqrt(static_cast<float>(m[x - offset_next]));
-                  const float after = std::sqrt(static_cast<float>(m[x + offset_next]));
+                  const float before = std::sqrt(static_cast<float>(before2));
+                  const float after = std::sqrt(static_cast<float>(after2));
                   const float denom = before - 2.0f * c + after;
                   const float sub = denom < 0.0f ? 0.5f * (before - after) / denom : 0.0f;
                   edges.push_back({x + sub * sx, y + sub * sy, dx, dy});
