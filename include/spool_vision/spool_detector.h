@@ -481,7 +481,7 @@ private:
                       SpoolDetection& result);
   /// holes_ less those of `below` px and up, those scoring under `least` and those inside a bore of
   /// larger_bores_ (its lit lens).
-  void keepSharpBoresOutside(double below, double least);
+  void keepBoresOutside(double below, double least);
   /// Where no spool was found: the first kObliqueCandidates flange candidates nearest the reference
   /// (ConcentricMatcher::targetCost()) searched for a bore in their concentric window larger than
   /// the match allows them (1 + hole_ratio_tolerance times the size they give it, up to
@@ -802,7 +802,7 @@ private:
   /// The whole frame's search took its spool about a bore too small to measure (smallBoreSpool()):
   /// takesSecondSearch() takes that spool.
   bool small_bore_spool_taken_ = false;
-  std::vector<Circle> larger_bores_;  ///< keepSharpBoresOutside()'s bores of measurable size
+  std::vector<Circle> larger_bores_;  ///< keepBoresOutside()'s bores of measurable size
   std::vector<Circle> own_bores_;     ///< innerRing()'s circles about the target's bore
   std::vector<float> lens_samples_;   ///< measureLens()'s scratch
   std::vector<std::size_t> order_;

@@ -532,9 +532,9 @@ bool SpoolDetector::rimAboutWeakMatch(const cv::Mat& image, PixelFormat format, 
                                own_rim_.support)))
     return false;
   const double least =
-      own_measured ? std::max(kWeakMatchRimSupport,
-                              own_rim_.support + (rim_measured && !dropped ? kMeasuredRimMargin : kObliqueRimMargin))
-                   : kWeakMatchRimSupport;
+      own_measured
+          ? std::max(kWeakMatchRimSupport, own_rim_.support + (rim_measured ? kMeasuredRimMargin : kObliqueRimMargin))
+          : kWeakMatchRimSupport;
   // No rim has more than all of its samples.
   if (least > 1.0)
     return false;
@@ -886,7 +886,7 @@ bool SpoolDetector::obliqueSpool(const cv::Mat& image, PixelFormat format, const
         larger_bores_.clear();
         std::copy_if(holes_.begin(), holes_.end(), std::back_inserter(larger_bores_),
                      [](const Circle& bore) { return bore.r >= kMinKnownSizeRadius; });
-        keepSharpBoresOutside(kMinKnownSizeRadius, kSharpHoleScore);
+        keepBoresOutside(kMinKnownSizeRadius, kSharpHoleScore);
         orderByDistanceTo(reference, holes_);
         if (spoolAboutHoles(image, format, reference, bound, hole_search.r_min, kBoreLedHoles, result))
           return true;
@@ -974,7 +974,7 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
       continue;
     extractHoleEdges(holes.center_window, holes.r_max + 2.0);
     detectHoles(holes);
-    keepSharpBoresOutside(std::numeric_limits<double>::infinity(), params_.matcher.weak_hole_score);
+    keepBoresOutside(std::numeric_limits<double>::infinity(), params_.matcher.weak_hole_score);
     orderByDistanceTo(reference, holes_);
     if (spoolAboutHoles(image, format, reference, kNoMatch, hole_search.r_min, kBoreLedHoles, result))
     {
@@ -985,7 +985,7 @@ bool SpoolDetector::smallBoreSpool(const cv::Mat& image, PixelFormat format, con
   return false;
 }
 
-void SpoolDetector::keepSharpBoresOutside(double below, double least)
+void SpoolDetector::keepBoresOutside(double below, double least)
 {
   // Only rims scoring `least`: a fainter ring that small is any dark speck of the face (oblique seed
   // 103 #109: a neighbour's rim about one, where the target was not found).
