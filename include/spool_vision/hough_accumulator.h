@@ -235,24 +235,25 @@ public:
   bool fitAt(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
              const cv::Point2d& centre, const BackFlange& back, Circle& circle);
 
-  /// The centre of a rim of known size (axis-aligned ellipse, semi-axes in px) within
+  /// The centre of a rim of known size and shape (an ellipse, px) within
   /// `max_shift` px of `start`, measured on the part of the rim that shows: the centre that puts
   /// the most edges of `search`'s polarity within a narrow band of the ellipse, each weighted by
   /// its closeness (half-pixel grid, then a tenth, then a fiftieth: the bore's axis is read off
   /// this centre). Only the half of the rim on the `side` of `start` counts (a direction; zero =
-  /// all of it). `circle.r` is the mean semi-axis; the score
+  /// all of it). `circle.r` is the mean semi-axis, r_vertical and r_horizontal the shape's half
+  /// height and width; the score
   /// as refine()'s, over that half. False without support. For the bore's front rim, whose far
   /// side hides behind the bore wall catching light near the opening: a free fit follows the dark
   /// region inside and comes out small and off centre.
   bool fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-                       const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
-                       const cv::Point2d& side, Circle& circle);
-  /// fitCentreAtSize() at the scale of (semi_x, semi_y) in [lo, hi] (steps of kScaleStep) whose
+                       const cv::Point2d& start, const EllipseShape& shape, double max_shift, const cv::Point2d& side,
+                       Circle& circle);
+  /// fitCentreAtSize() at the scale of `shape` in [lo, hi] (steps of kScaleStep) whose
   /// rim has the most soft support per px of rim and of band: the rim's own size where only its
   /// shape is known.
   bool fitCentreAndScale(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
-                         const cv::Point2d& start, double semi_x, double semi_y, double max_shift,
-                         const cv::Point2d& side, double lo, double hi, Circle& circle);
+                         const cv::Point2d& start, const EllipseShape& shape, double max_shift, const cv::Point2d& side,
+                         double lo, double hi, Circle& circle);
   /// fitCentreAndScale()'s step in scale (a fraction of the given size)
   static constexpr double kScaleStep = 0.02;
 
@@ -318,21 +319,20 @@ private:
   /// ellipse of `model` (centre, r_horizontal, r_vertical) that support it for `sign`
   /// (centreSign); returns their count.
   std::size_t pickBand(const Circle& model, double band, float sign);
-  /// The edges of near_ within `band` px of the axis-aligned ellipse (semi_x, semi_y) centred at
+  /// The edges of near_ within `band` px of the ellipse `shape` centred at
   /// `c` that support it for `sign` (centreSign), each weighted by how close it lies (1 on the
   /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of
   /// a grid step. `count`, if given, gets the plain count.
-  double ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign, int* count) const;
+  double ellipseSupport(const cv::Point2d& c, const EllipseShape& shape, double band, float sign, int* count) const;
   // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start`.
-  cv::Point2d bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band, double max_shift,
-                         float sign, double& best_soft) const;
+  cv::Point2d bestCentre(const cv::Point2d& start, const EllipseShape& shape, double band, double max_shift, float sign,
+                         double& best_soft) const;
   // fitCentreAndScale()'s rating of a centre: the best soft support density over the scales lo +
   // k kScaleStep, k <= steps (that scale into `scale`).
-  double bestScaleAt(const cv::Point2d& c, double semi_x, double semi_y, double lo, int steps, float sign,
-                     double& scale);
+  double bestScaleAt(const cv::Point2d& c, const EllipseShape& shape, double lo, int steps, float sign, double& scale);
   // The rim model at `centre` with its score over near_ (refine()'s, over `side`'s half).
-  bool supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre, double semi_x,
-                 double semi_y, const cv::Point2d& side, Circle& circle) const;
+  bool supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre, const EllipseShape& shape,
+                 const cv::Point2d& side, Circle& circle) const;
   /// Fills near_ (near_count_) with the edges `inner`..`outer` px from `centre` on its `side` (a direction;
   /// zero = all round).
   void gatherNear(const std::vector<EdgePoint>& edges, const cv::Point2d& centre, double inner, double outer,

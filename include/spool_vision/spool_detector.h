@@ -305,7 +305,9 @@ private:
   /// how much narrower than high the bore's ellipse is (the cosine of its angle to the line of
   /// sight; without an axis, the flange's measured width scaled). `sized_by_pose` (with `axis`):
   /// measured too at the size `result`'s pose (position, m, and axis) projects its 3.6 cm front
-  /// rim to (SpoolGeometry::boreExtent()), and the better supported of the two kept.
+  /// rim to, and the better supported of the two kept; both are then the projected ellipse of a
+  /// level spool's bore (boreShape()'s `projected`), tilted where the bore is above or below the
+  /// axis's vanishing point: this is the bore that is reported.
   bool measureBoreAtKnownSize(SpoolDetection& result, std::optional<double> max_shift = std::nullopt,
                               const std::optional<cv::Vec3d>& axis = std::nullopt, bool sized_by_pose = false);
   /// The bore measured again at its known size once the flange's pose is measured (a hole score
@@ -373,17 +375,23 @@ private:
   /// NaN: unknown).
   bool boreAgreesAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis);
   /// measureBoreAtKnownSize()'s ellipse, centre reach, lit-wall side and search for `result`'s
-  /// bore; none where the bore is under kMinKnownSizeRadius.
+  /// bore; none where the bore is under kMinKnownSizeRadius. With `axis` and `projected`, the
+  /// ellipse is the bore's front rim projected with the axis's yaw and a level spool's pitch
+  /// (SpoolGeometry::boreEllipse(), levelAxis()), scaled to the height the flange gives it; with
+  /// `axis` alone, upright (the shape the checks that judge the spool by its bore were set on).
   struct BoreShape
   {
-    double semi_x = 0.0;  ///< px
-    double semi_y = 0.0;  ///< px
-    double shift = 0.0;   ///< px the centre may move
-    cv::Point2d side;     ///< the sharp half's direction; zero: the whole rim
+    EllipseShape ellipse;  ///< px
+    double shift = 0.0;    ///< px the centre may move
+    cv::Point2d side;      ///< the sharp half's direction; zero: the whole rim
     HoughSearch search;
   };
   std::optional<BoreShape> boreShape(const SpoolDetection& result, std::optional<double> max_shift,
-                                     const std::optional<cv::Vec3d>& axis);
+                                     const std::optional<cv::Vec3d>& axis, bool projected);
+  /// `axis` (unit, camera optical frame) with the pitch of a level spool (tracker level_pitch) where
+  /// the tracker takes spools as level (level_pitch_sigma > 0); else, or where `axis` does not point
+  /// away from the camera, `axis`.
+  cv::Vec3d levelAxis(const cv::Vec3d& axis) const;
   /// hole_edges_: the edges within `reach` px of `hole`'s centre, placed in the frame's light.
   void extractBoreEdges(const Circle& hole, double reach);
   /// True where `axis` (unit, camera optical frame) is kObliqueAxisAngle or more off the optical

@@ -73,6 +73,9 @@ public:
   /// 3.6 cm bore at 0.45 m and more). Zero where `position` is not in front of the camera or `axis`
   /// is not finite.
   cv::Size2d boreExtent(const cv::Point3d& position, const cv::Vec3d& axis) const;
+  /// The same projection as an ellipse: its semi-axes (px) and their tilt (EllipseShape), the
+  /// short axis towards `axis`'s vanishing point. Zero-sized where boreExtent() is.
+  EllipseShape boreEllipse(const cv::Point3d& position, const cv::Vec3d& axis) const;
 
   /// The point at `depth` (m) seen at pixel (u, v), camera optical frame (pinhole).
   cv::Point3d backProject(double u, double v, double depth) const;

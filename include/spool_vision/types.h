@@ -38,6 +38,33 @@ struct Circle
   double visible_fraction = 0.0;
 };
 
+/// An ellipse's shape about its centre (px): semi-axes `semi_x` and `semi_y` along the image's x
+/// and y axes turned by `tilt` (rad, from x towards y; 0: axis-aligned). A circle seen off its
+/// axis and off the image centre projects to one whose short axis points at the axis's vanishing
+/// point, so tilted where the two are not level (SpoolGeometry::boreEllipse()).
+struct EllipseShape
+{
+  double semi_x = 0.0;
+  double semi_y = 0.0;
+  double tilt = 0.0;
+
+  /// The shape scaled by `s` (same tilt).
+  EllipseShape scaled(double s) const
+  {
+    return {s * semi_x, s * semi_y, tilt};
+  }
+  /// Half the width of the ellipse's bounding box (px).
+  double halfWidth() const
+  {
+    return std::hypot(semi_x * std::cos(tilt), semi_y * std::sin(tilt));
+  }
+  /// Half the height of the ellipse's bounding box (px): its vertical extent, as Circle::r_vertical.
+  double halfHeight() const
+  {
+    return std::hypot(semi_x * std::sin(tilt), semi_y * std::cos(tilt));
+  }
+};
+
 /// The camera of the frames the detector gets: pinhole intrinsics (px) of an image of
 /// width x height and its lens distortion, as ROS's image_geometry::PinholeCameraModel reads a
 /// sensor_msgs/CameraInfo: a raw image is K with D, a rectified one P with no distortion; binning

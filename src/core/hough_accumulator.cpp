@@ -1082,10 +1082,37 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
   return circle.visible_fraction >= search.min_visible_fraction;
 }
 
-double HoughAccumulator::ellipseSupport(const cv::Point2d& c, double semi_x, double semi_y, double band, float sign,
+namespace
+{
+// An ellipse's normalised radius: rho^2 = xx vx^2 + xy vx vy + yy vy^2 for an offset (vx, vy)
+// from its centre, 1 on the ellipse.
+struct EllipseForm
+{
+  explicit EllipseForm(const EllipseShape& shape)
+  {
+    const double c = std::cos(shape.tilt);
+    const double s = std::sin(shape.tilt);
+    const double ix2 = 1.0 / (shape.semi_x * shape.semi_x);
+    const double iy2 = 1.0 / (shape.semi_y * shape.semi_y);
+    xx = c * c * ix2 + s * s * iy2;
+    xy = 2.0 * c * s * (ix2 - iy2);
+    yy = s * s * ix2 + c * c * iy2;
+  }
+  double rho2(double vx, double vy) const
+  {
+    return vx * vx * xx + vx * vy * xy + vy * vy * yy;
+  }
+  double xx;
+  double xy;
+  double yy;
+};
+}  // namespace
+
+double HoughAccumulator::ellipseSupport(const cv::Point2d& c, const EllipseShape& shape, double band, float sign,
                                         int* count) const
 {
-  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
+  const EllipseForm form(shape);
   double soft = 0.0;
   int n = 0;
   for (std::size_t i = 0; i < near_count_; ++i)
@@ -1093,7 +1120,7 @@ double HoughAccumulator::ellipseSupport(const cv::Point2d& c, double semi_x, dou
     const EdgePoint& e = near_[i];
     const double vx = e.x - c.x;
     const double vy = e.y - c.y;
-    const double off = std::abs(std::sqrt(vx * vx / (semi_x * semi_x) + vy * vy / (semi_y * semi_y)) - 1.0) * mean_r;
+    const double off = std::abs(std::sqrt(form.rho2(vx, vy)) - 1.0) * mean_r;
     const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
     const bool supports = (off <= band) & aligned;
     soft += supports ? 1.0 - off / band : 0.0;
@@ -1138,22 +1165,20 @@ cv::Point2d searchCentre(const cv::Point2d& start, double reach, Score score, do
 }
 }  // namespace
 
-cv::Point2d HoughAccumulator::bestCentre(const cv::Point2d& start, double semi_x, double semi_y, double band,
+cv::Point2d HoughAccumulator::bestCentre(const cv::Point2d& start, const EllipseShape& shape, double band,
                                          double max_shift, float sign, double& best_soft) const
 {
   return searchCentre(
-      start, max_shift, [&](const cv::Point2d& c) { return ellipseSupport(c, semi_x, semi_y, band, sign, nullptr); },
-      best_soft);
+      start, max_shift, [&](const cv::Point2d& c) { return ellipseSupport(c, shape, band, sign, nullptr); }, best_soft);
 }
 
-double HoughAccumulator::bestScaleAt(const cv::Point2d& c, double semi_x, double semi_y, double lo, int steps,
-                                     float sign, double& scale)
+double HoughAccumulator::bestScaleAt(const cv::Point2d& c, const EllipseShape& shape, double lo, int steps, float sign,
+                                     double& scale)
 {
   // ellipseSupport() at every scale s in one pass: an edge at normalised radius rho is off the
   // scaled ellipse by |rho - s| mean_r px.
-  const double mean_r = std::sqrt(semi_x * semi_y);
-  const double inv_x2 = 1.0 / (semi_x * semi_x);
-  const double inv_y2 = 1.0 / (semi_y * semi_y);
+  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
+  const EllipseForm form(shape);
   auto band_at = [&](int k) { return std::max(0.75, 0.04 * (lo + k * kScaleStep) * mean_r); };
   const double widest = band_at(steps) / mean_r;
   scale_soft_.assign(static_cast<std::size_t>(steps) + 1, 0.0);
@@ -1164,7 +1189,7 @@ double HoughAccumulator::bestScaleAt(const cv::Point2d& c, double semi_x, double
     const double vy = e.y - c.y;
     if (!radial(vx, vy, vx * vx + vy * vy, e, sign))
       continue;
-    const double rho = std::sqrt(vx * vx * inv_x2 + vy * vy * inv_y2);
+    const double rho = std::sqrt(form.rho2(vx, vy));
     const int first = std::max(0, static_cast<int>(std::ceil((rho - widest - lo) / kScaleStep)));
     const int last = std::min(steps, static_cast<int>(std::floor((rho + widest - lo) / kScaleStep)));
     for (int k = first; k <= last; ++k)
@@ -1192,56 +1217,55 @@ double HoughAccumulator::bestScaleAt(const cv::Point2d& c, double semi_x, double
 }
 
 bool HoughAccumulator::fitCentreAtSize(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                                       const HoughSearch& search, const cv::Point2d& start, double semi_x,
-                                       double semi_y, double max_shift, const cv::Point2d& side, Circle& circle)
+                                       const HoughSearch& search, const cv::Point2d& start, const EllipseShape& shape,
+                                       double max_shift, const cv::Point2d& side, Circle& circle)
 {
-  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
   const double band = std::max(0.75, 0.04 * mean_r);
-  gatherNear(edges, start, std::min(semi_x, semi_y) - max_shift - band, std::max(semi_x, semi_y) + max_shift + band,
-             side);
+  gatherNear(edges, start, std::min(shape.semi_x, shape.semi_y) - max_shift - band,
+             std::max(shape.semi_x, shape.semi_y) + max_shift + band, side);
   double soft = 0.0;
-  return supportAt(image_size, search,
-                   bestCentre(start, semi_x, semi_y, band, max_shift, centreSign(search.polarity), soft), semi_x,
-                   semi_y, side, circle);
+  return supportAt(image_size, search, bestCentre(start, shape, band, max_shift, centreSign(search.polarity), soft),
+                   shape, side, circle);
 }
 
 bool HoughAccumulator::fitCentreAndScale(const std::vector<EdgePoint>& edges, cv::Size image_size,
-                                         const HoughSearch& search, const cv::Point2d& start, double semi_x,
-                                         double semi_y, double max_shift, const cv::Point2d& side, double lo, double hi,
+                                         const HoughSearch& search, const cv::Point2d& start, const EllipseShape& shape,
+                                         double max_shift, const cv::Point2d& side, double lo, double hi,
                                          Circle& circle)
 {
-  const double mean_r = std::sqrt(semi_x * semi_y);
-  gatherNear(edges, start, lo * std::min(semi_x, semi_y) - max_shift - 0.04 * hi * mean_r - 0.75,
-             hi * std::max(semi_x, semi_y) + max_shift + 0.04 * hi * mean_r + 0.75, side);
+  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
+  const double smallest = std::min(shape.semi_x, shape.semi_y);
+  const double largest = std::max(shape.semi_x, shape.semi_y);
+  gatherNear(edges, start, lo * smallest - max_shift - 0.04 * hi * mean_r - 0.75,
+             hi * largest + max_shift + 0.04 * hi * mean_r + 0.75, side);
   const float sign = centreSign(search.polarity);
   const int steps = static_cast<int>(std::floor((hi - lo) / kScaleStep + 1e-9));
   double scale = 1.0;
   double density = 0.0;
   const cv::Point2d best_centre = searchCentre(
-      start, max_shift, [&](const cv::Point2d& c) { return bestScaleAt(c, semi_x, semi_y, lo, steps, sign, scale); },
-      density);
+      start, max_shift, [&](const cv::Point2d& c) { return bestScaleAt(c, shape, lo, steps, sign, scale); }, density);
   double best_scale = 1.0;
-  bestScaleAt(best_centre, semi_x, semi_y, lo, steps, sign, best_scale);
+  bestScaleAt(best_centre, shape, lo, steps, sign, best_scale);
   const double band = std::max(0.75, 0.04 * best_scale * mean_r);
-  gatherNear(edges, best_centre, best_scale * std::min(semi_x, semi_y) - band,
-             best_scale * std::max(semi_x, semi_y) + band, side);
-  return supportAt(image_size, search, best_centre, best_scale * semi_x, best_scale * semi_y, side, circle);
+  gatherNear(edges, best_centre, best_scale * smallest - band, best_scale * largest + band, side);
+  return supportAt(image_size, search, best_centre, shape.scaled(best_scale), side, circle);
 }
 
 bool HoughAccumulator::supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre,
-                                 double semi_x, double semi_y, const cv::Point2d& side, Circle& circle) const
+                                 const EllipseShape& shape, const cv::Point2d& side, Circle& circle) const
 {
-  const double mean_r = std::sqrt(semi_x * semi_y);
+  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
   const double band = std::max(0.75, 0.04 * mean_r);
   int count = 0;
-  ellipseSupport(centre, semi_x, semi_y, band, centreSign(search.polarity), &count);
+  ellipseSupport(centre, shape, band, centreSign(search.polarity), &count);
   if (count < 8)
     return false;
   circle.x = centre.x;
   circle.y = centre.y;
-  circle.r = 0.5 * (semi_x + semi_y);
-  circle.r_vertical = semi_y;
-  circle.r_horizontal = semi_x;
+  circle.r = 0.5 * (shape.semi_x + shape.semi_y);
+  circle.r_vertical = shape.halfHeight();
+  circle.r_horizontal = shape.halfWidth();
   circle.visible_fraction = visibleRimFraction(centre.x, centre.y, circle.r, image_size);
   const double arc = side == cv::Point2d() ? 1.0 : 0.5;
   circle.score = std::min(1.0, count / (0.9 * 2.0 * kPi * mean_r * arc * std::max(circle.visible_fraction, 1e-3)));

@@ -170,6 +170,12 @@ cv::Point3d SpoolGeometry::backProject(double u, double v, double depth) const
 
 cv::Size2d SpoolGeometry::boreExtent(const cv::Point3d& position, const cv::Vec3d& axis) const
 {
+  const EllipseShape shape = boreEllipse(position, axis);
+  return {shape.halfWidth(), shape.halfHeight()};
+}
+
+EllipseShape SpoolGeometry::boreEllipse(const cv::Point3d& position, const cv::Vec3d& axis) const
+{
   if (!(position.z > 0.0) || !std::isfinite(axis[0] + axis[1] + axis[2]) || cv::norm(axis) == 0.0)
     return {};
   const cv::Vec3d n = cv::normalize(axis);
@@ -180,10 +186,24 @@ cv::Size2d SpoolGeometry::boreExtent(const cv::Point3d& position, const cv::Vec3
   const double radius = 0.5 * params_.hole_diameter;
   const double px = position.x / position.z;
   const double py = position.y / position.z;
-  // d(fx X/Z)/dX = fx/Z (1, 0, -X/Z); likewise for y.
+  // d(fx X/Z)/dX = fx/Z (1, 0, -X/Z); likewise for y. The rim's points R (cos t u + sin t v) map to
+  // the offsets M (cos t, sin t): the ellipse v^T (M M^T)^-1 v = 1.
   const double sx = camera_.fx * radius / position.z;
   const double sy = camera_.fy * radius / position.z;
-  return {sx * std::hypot(u[0] - px * u[2], v[0] - px * v[2]), sy * std::hypot(u[1] - py * u[2], v[1] - py * v[2])};
+  const cv::Matx22d m(sx * (u[0] - px * u[2]), sx * (v[0] - px * v[2]), sy * (u[1] - py * u[2]),
+                      sy * (v[1] - py * v[2]));
+  const cv::Matx22d s = m * m.t();
+  // Its axes are the eigenvectors of M M^T; the one within 45 deg of x is semi_x's.
+  double tilt = 0.5 * std::atan2(2.0 * s(0, 1), s(0, 0) - s(1, 1));
+  if (tilt > 0.25 * CV_PI)
+    tilt -= 0.5 * CV_PI;
+  else if (tilt < -0.25 * CV_PI)
+    tilt += 0.5 * CV_PI;
+  const double c = std::cos(tilt);
+  const double si = std::sin(tilt);
+  const double along_x = c * c * s(0, 0) + 2.0 * c * si * s(0, 1) + si * si * s(1, 1);
+  const double along_y = si * si * s(0, 0) - 2.0 * c * si * s(0, 1) + c * c * s(1, 1);
+  return {std::sqrt(std::max(0.0, along_x)), std::sqrt(std::max(0.0, along_y)), tilt};
 }
 
 bool SpoolGeometry::rimPose(const Circle& flange, const cv::Point2d& centre, cv::Point3d& position,

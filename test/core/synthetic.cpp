@@ -14,30 +14,33 @@ constexpr int kSuper = 8;  // sub-samples per pixel side on the boundary
 
 // cv::circle's anti-aliased discs come out ~0.6 px larger than asked, which would bias every
 // expected radius; this one blends by exact area coverage.
-void fillEllipse(cv::Mat& gray, double x, double y, double a, double b, int value)
+void fillEllipse(cv::Mat& gray, double x, double y, double a, double b, int value, double tilt)
 {
-  const int x0 = std::max(0, static_cast<int>(std::floor(x - a - 1)));
-  const int x1 = std::min(gray.cols - 1, static_cast<int>(std::ceil(x + a + 1)));
-  const int y0 = std::max(0, static_cast<int>(std::floor(y - b - 1)));
-  const int y1 = std::min(gray.rows - 1, static_cast<int>(std::ceil(y + b + 1)));
+  const double c = std::cos(tilt);
+  const double s = std::sin(tilt);
+  const double half_w = std::hypot(a * c, b * s);
+  const double half_h = std::hypot(a * s, b * c);
+  const int x0 = std::max(0, static_cast<int>(std::floor(x - half_w - 1)));
+  const int x1 = std::min(gray.cols - 1, static_cast<int>(std::ceil(x + half_w + 1)));
+  const int y0 = std::max(0, static_cast<int>(std::floor(y - half_h - 1)));
+  const int y1 = std::min(gray.rows - 1, static_cast<int>(std::ceil(y + half_h + 1)));
   const double band = 1.0 / std::min(a, b);  // about one pixel in normalised radius
+  // Normalised radius of the point (px, py): 1 on the ellipse.
+  auto rho = [&](double px, double py)
+  { return std::hypot((c * (px - x) + s * (py - y)) / a, (c * (py - y) - s * (px - x)) / b); };
   for (int py = y0; py <= y1; ++py)
   {
     uchar* row = gray.ptr<uchar>(py);
     for (int px = x0; px <= x1; ++px)
     {
-      const double rho = std::hypot((px - x) / a, (py - y) / b);
-      double cover = rho < 1.0 - band ? 1.0 : 0.0;
-      if (std::abs(rho - 1.0) <= band)
+      const double at = rho(px, py);
+      double cover = at < 1.0 - band ? 1.0 : 0.0;
+      if (std::abs(at - 1.0) <= band)
       {
         int inside = 0;
         for (int i = 0; i < kSuper; ++i)
           for (int j = 0; j < kSuper; ++j)
-          {
-            const double sx = px - 0.5 + (i + 0.5) / kSuper;
-            const double sy = py - 0.5 + (j + 0.5) / kSuper;
-            inside += std::hypot((sx - x) / a, (sy - y) / b) <= 1.0 ? 1 : 0;
-          }
+            inside += rho(px - 0.5 + (i + 0.5) / kSuper, py - 0.5 + (j + 0.5) / kSuper) <= 1.0 ? 1 : 0;
         cover = static_cast<double>(inside) / (kSuper * kSuper);
       }
       if (cover > 0.0)

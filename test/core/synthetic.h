@@ -32,8 +32,9 @@ struct SceneStyle
 /// below the optical axis, seen by `camera` (thesis spool: 35 cm flange, 3.6 cm hole).
 DrawnSpool spoolAt(const CameraIntrinsics& camera, double depth, double lateral, double below);
 
-/// Blends an axis-aligned filled ellipse (semi-axes a, b) into `gray` by exact pixel coverage.
-void fillEllipse(cv::Mat& gray, double x, double y, double a, double b, int value);
+/// Blends a filled ellipse (semi-axes a, b along x and y turned by `tilt` rad from x towards y)
+/// into `gray` by exact pixel coverage.
+void fillEllipse(cv::Mat& gray, double x, double y, double a, double b, int value, double tilt = 0.0);
 
 /// Draws the spools (anti-aliased, sub-pixel) on a uniform background, BGR 8-bit.
 cv::Mat drawScene(cv::Size size, const std::vector<DrawnSpool>& spools, const SceneStyle& style = SceneStyle());

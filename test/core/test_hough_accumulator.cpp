@@ -15,6 +15,7 @@ using spool_vision::BackFlange;
 using spool_vision::Circle;
 using spool_vision::EdgeDetector;
 using spool_vision::EdgePoint;
+using spool_vision::EllipseShape;
 using spool_vision::HoughAccumulator;
 using spool_vision::HoughSearch;
 using spool_vision::Polarity;
@@ -490,11 +491,11 @@ TEST(HoughAccumulator, FitCentreAtSizePlacesABlurredHalfRimToAFewHundredthsOfAPi
   // is found; searched for on the rim itself, the half rim pulls it inward (down) by that much.
   const double inset = 0.5 * sigma * sigma / r;
   Circle at_inset;
-  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, r - inset, r - inset, 2.0, up, at_inset));
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, {r - inset, r - inset}, 2.0, up, at_inset));
   EXPECT_NEAR(at_inset.x, x, 0.02);
   EXPECT_NEAR(at_inset.y, y, 0.02);
   Circle on_rim;
-  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, r, r, 2.0, up, on_rim));
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, {r, r}, 2.0, up, on_rim));
   EXPECT_GT(on_rim.y - y, 0.6 * inset);
   EXPECT_GT(at_inset.score, 0.9);
 }
@@ -514,24 +515,59 @@ TEST(HoughAccumulator, FitCentreAndScaleMeasuresAHalfRimsOwnSizeWhereOnlyItsShap
   // The lit wall: the right part of the opening as light as the face.
   cv::rectangle(img, cv::Point(static_cast<int>(x + 0.3 * semi_x), 0), cv::Point(639, 479), cv::Scalar(150),
                 cv::FILLED);
-  cv::Mat smooth;
-  cv::GaussianBlur(img, smooth, cv::Size(), 1.0);
-  const std::vector<EdgePoint> edges = edgesOf(smooth, 0.02);
+  const std::vector<EdgePoint> edges = blurredEdgesOf(img, 0.02);
   HoughSearch search;
   search.polarity = Polarity::kDark;
   HoughAccumulator hough;
   const double start_scale = 1.0 / 1.15;
   Circle own;
-  ASSERT_TRUE(hough.fitCentreAndScale(edges, img.size(), search, {x + 2.0, y - 1.5}, start_scale * semi_x,
-                                      start_scale * semi_y, 6.0, {-1.0, 0.0}, 0.7, 1.35, own));
+  ASSERT_TRUE(hough.fitCentreAndScale(edges, img.size(), search, {x + 2.0, y - 1.5},
+                                      EllipseShape{semi_x, semi_y, 0.0}.scaled(start_scale), 6.0, {-1.0, 0.0}, 0.7,
+                                      1.35, own));
   EXPECT_NEAR(own.r_vertical, semi_y, HoughAccumulator::kScaleStep * semi_y);
   EXPECT_NEAR(own.x, x, 0.5);
   EXPECT_NEAR(own.y, y, 0.5);
   // At the start's size the centre alone cannot put the half rim on it.
   Circle at_start;
-  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, {x + 2.0, y - 1.5}, start_scale * semi_x,
-                                    start_scale * semi_y, 6.0, {-1.0, 0.0}, at_start));
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, {x + 2.0, y - 1.5},
+                                    EllipseShape{semi_x, semi_y, 0.0}.scaled(start_scale), 6.0, {-1.0, 0.0}, at_start));
   EXPECT_GT(std::abs(at_start.x - x), 1.5);
+}
+
+TEST(HoughAccumulator, FitCentreAtSizeCentresATiltedHalfRimOnItsOwnShape)
+{
+  // A dark bore seen ~35 deg off its axis and below its vanishing point (oblique seed 131 #8 at
+  // 640x480: semi-axes 28.9 x 25.0 px, tilted 11 deg), its far half hidden by the lit wall: only
+  // the half facing the vanishing point is its rim. Its own, tilted shape puts the centre on it;
+  // the upright ellipse of the same semi-axes, fitted on that half, comes out off it.
+  const double x = 300.4;
+  const double y = 250.7;
+  const EllipseShape shape{25.0, 28.9, 11.0 * M_PI / 180.0};
+  cv::Mat img(480, 640, CV_8UC1, cv::Scalar(150));
+  spool_vision::test::fillEllipse(img, x, y, shape.semi_x, shape.semi_y, 30, shape.tilt);
+  // The lit wall: the opening beyond 0.3 of its short axis, away from the vanishing point, as
+  // light as the face.
+  const cv::Point2d away(std::cos(shape.tilt), std::sin(shape.tilt));
+  for (int row = 0; row < img.rows; ++row)
+    for (int col = 0; col < img.cols; ++col)
+      if ((col - x) * away.x + (row - y) * away.y > 0.3 * shape.semi_x)
+        img.at<uchar>(row, col) = 150;
+  const std::vector<EdgePoint> edges = blurredEdgesOf(img, 0.02);
+  HoughSearch search;
+  search.polarity = Polarity::kDark;
+  HoughAccumulator hough;
+  const cv::Point2d start(x + 2.0, y - 1.5);
+  Circle tilted;
+  ASSERT_TRUE(hough.fitCentreAtSize(edges, img.size(), search, start, shape, 6.0, -away, tilted));
+  EXPECT_NEAR(tilted.x, x, 0.25);
+  EXPECT_NEAR(tilted.y, y, 0.25);
+  EXPECT_NEAR(tilted.r, 0.5 * (shape.semi_x + shape.semi_y), 1e-9);
+  EXPECT_NEAR(tilted.r_vertical, shape.halfHeight(), 1e-9);
+  EXPECT_NEAR(tilted.r_horizontal, shape.halfWidth(), 1e-9);
+  Circle upright;
+  ASSERT_TRUE(
+      hough.fitCentreAtSize(edges, img.size(), search, start, {shape.semi_x, shape.semi_y, 0.0}, 6.0, -away, upright));
+  EXPECT_GT(std::hypot(upright.x - x, upright.y - y), 0.6);
 }
 
 TEST(EdgeDetector, ARegionFindsTheWholeFramesEdgesInsideIt)

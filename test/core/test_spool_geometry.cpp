@@ -252,6 +252,34 @@ std::ostream& operator<<(std::ostream& out, const PoseCase& k)
 {
   return out << "centre " << k.centre << " yaw " << k.yaw_deg << " pitch " << k.pitch_deg;
 }
+
+// The bore's 3.6 cm front rim at pose `k` projected point by point (the exact pinhole image), and
+// the corners of its bounding box.
+struct ProjectedBoreRim
+{
+  ProjectedBoreRim(const CameraIntrinsics& camera, const PoseCase& k)
+  {
+    const cv::Vec3d axis = cv::normalize(k.axis());
+    const cv::Vec3d u = cv::normalize(axis.cross(cv::Vec3d(0.0, 1.0, 0.0)));
+    const cv::Vec3d v = axis.cross(u);
+    constexpr int kPoints = 3600;
+    for (int i = 0; i < kPoints; ++i)
+    {
+      const double t = 2.0 * M_PI * i / kPoints;
+      const cv::Vec3d p = k.centre + 0.018 * (std::cos(t) * u + std::sin(t) * v);
+      points.emplace_back(camera.cx + camera.fx * p[0] / p[2], camera.cy + camera.fy * p[1] / p[2]);
+      low = {std::min(low.x, points.back().x), std::min(low.y, points.back().y)};
+      high = {std::max(high.x, points.back().x), std::max(high.y, points.back().y)};
+    }
+  }
+  std::vector<cv::Point2d> points;
+  cv::Point2d low{1e9, 1e9};
+  cv::Point2d high{-1e9, -1e9};
+};
+
+// Seen square on and 25-40 deg off its axis, turned or tilted.
+const PoseCase kBorePoses[] = {PoseCase{{0.0, 0.06, 0.55}, 0.0, 0.0}, PoseCase{{-0.12, 0.07, 0.57}, -40.0, 0.0},
+                               PoseCase{{0.2, 0.05, 0.8}, 30.0, 2.0}, PoseCase{{0.05, -0.1, 0.5}, 25.0, -25.0}};
 }  // namespace
 
 TEST(SpoolGeometry, RimPoseGivesDepthPositionAndAxisOfATiltedSpool)
@@ -288,31 +316,53 @@ TEST(SpoolGeometry, BoreExtentIsTheProjectedFrontRimsHalfWidthAndHalfHeight)
 {
   const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
   const SpoolGeometry g(GeometryParams(), camera);
-  for (const PoseCase& k : {PoseCase{{0.0, 0.06, 0.55}, 0.0, 0.0}, PoseCase{{-0.12, 0.07, 0.57}, -40.0, 0.0},
-                            PoseCase{{0.2, 0.05, 0.8}, 30.0, 2.0}, PoseCase{{0.05, -0.1, 0.5}, 25.0, -25.0}})
+  for (const PoseCase& k : kBorePoses)
   {
     SCOPED_TRACE(::testing::Message() << k);
-    const cv::Vec3d axis = cv::normalize(k.axis());
-    const cv::Vec3d u = cv::normalize(axis.cross(cv::Vec3d(0.0, 1.0, 0.0)));
-    const cv::Vec3d v = axis.cross(u);
-    double left = 1e9, right = -1e9, top = 1e9, bottom = -1e9;
-    for (int i = 0; i < 3600; ++i)
-    {
-      const double t = 2.0 * M_PI * i / 3600.0;
-      const cv::Vec3d p = k.centre + 0.018 * (std::cos(t) * u + std::sin(t) * v);
-      const double x = camera.cx + camera.fx * p[0] / p[2];
-      const double y = camera.cy + camera.fy * p[1] / p[2];
-      left = std::min(left, x);
-      right = std::max(right, x);
-      top = std::min(top, y);
-      bottom = std::max(bottom, y);
-    }
-    const cv::Size2d extent = g.boreExtent(cv::Point3d(k.centre), axis);
-    EXPECT_NEAR(extent.width, 0.5 * (right - left), 0.02);
-    EXPECT_NEAR(extent.height, 0.5 * (bottom - top), 0.02);
+    const ProjectedBoreRim rim(camera, k);
+    const cv::Size2d extent = g.boreExtent(cv::Point3d(k.centre), cv::normalize(k.axis()));
+    EXPECT_NEAR(extent.width, 0.5 * (rim.high.x - rim.low.x), 0.02);
+    EXPECT_NEAR(extent.height, 0.5 * (rim.high.y - rim.low.y), 0.02);
   }
   EXPECT_EQ(g.boreExtent({0.0, 0.0, -0.5}, {0.0, 0.0, 1.0}), cv::Size2d());
   EXPECT_EQ(g.boreExtent({0.0, 0.0, 0.5}, {std::nan(""), 0.0, 1.0}), cv::Size2d());
+}
+
+// The bore's front rim projected point by point lies on boreEllipse()'s ellipse about the
+// projection's middle, to a tenth of a pixel, seen square on and 25-40 deg off its axis, turned or
+// tilted; and it is the renderer's ellipse, tilted where the bore is below its axis's vanishing point.
+TEST(SpoolGeometry, BoreEllipseIsTheProjectedFrontRimTiltedOffItsVanishingPointsRow)
+{
+  const CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  const SpoolGeometry g(GeometryParams(), camera);
+  for (const PoseCase& k : kBorePoses)
+  {
+    SCOPED_TRACE(::testing::Message() << k);
+    const ProjectedBoreRim rim(camera, k);
+    const cv::Point2d middle = 0.5 * (rim.low + rim.high);
+    const spool_vision::EllipseShape e = g.boreEllipse(cv::Point3d(k.centre), cv::normalize(k.axis()));
+    ASSERT_GT(e.semi_x, 0.0);
+    const double c = std::cos(e.tilt);
+    const double s = std::sin(e.tilt);
+    for (const cv::Point2d& p : rim.points)
+    {
+      const cv::Point2d d = p - middle;
+      const double rho = std::hypot((c * d.x + s * d.y) / e.semi_x, (c * d.y - s * d.x) / e.semi_y);
+      ASSERT_NEAR((rho - 1.0) * std::min(e.semi_x, e.semi_y), 0.0, 0.1) << p;
+    }
+  }
+  // The renderer's own ellipse of oblique seed 131 #8's bore at 640x480 (its exact pose, its camera):
+  // semi-axes 24.96 x 28.89 px, the long one 79.3 deg from x (10.7 deg from upright).
+  CameraIntrinsics rendered = camera;
+  rendered.cx = 329.1;
+  rendered.cy = 233.74;
+  const SpoolGeometry at(GeometryParams(), rendered);
+  const spool_vision::EllipseShape e =
+      at.boreEllipse({0.04522, 0.06064, 0.50089}, cv::normalize(cv::Vec3d(-0.41343, -0.00618, 0.91052)));
+  EXPECT_NEAR(e.semi_x, 24.96, 0.1);
+  EXPECT_NEAR(e.semi_y, 28.89, 0.1);
+  EXPECT_NEAR(e.tilt, -1.3838 + 0.5 * M_PI, 0.3 * kDeg);
+  EXPECT_EQ(g.boreEllipse({0.0, 0.0, -0.5}, {0.0, 0.0, 1.0}).semi_x, 0.0);
 }
 
 TEST(SpoolGeometry, AnAxisThatWouldTakeThePullerIntoTheBoreWallIsNotAligned)

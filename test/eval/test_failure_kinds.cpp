@@ -97,6 +97,19 @@ std::string obliqueTrace(int seed, int index, int width)
   return "oblique seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width);
 }
 
+// The oblique set's frame `index` of `count` from `seed` at `width` columns: the slot's spool is
+// found and its hole is its bore's front rim within the evaluation's tolerance.
+void expectObliqueHoleOnFrontRim(int seed, int index, int count, int width)
+{
+  SCOPED_TRACE(obliqueTrace(seed, index, width));
+  SpoolDetector detector;
+  const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
+  const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+  ASSERT_TRUE(d.detected && d.hole_detected);
+  ASSERT_TRUE(spool_vision::flangeMatches(spool_vision::targetSpool(frame.truth)->flange, d.flange));
+  expectHoleOnFrontRim(frame, detector, d);
+}
+
 // Frame `index` of 200 of `set` from `seed` at `width` columns: the slot's spool is the target,
 // found, its depth within 2%.
 void expectTargetFound(FrameSet set, int seed, int index, int width)
@@ -500,15 +513,7 @@ TEST(FailureKinds, AnObliqueBoreIsMeasuredAtTheSizeItsRimsPoseGivesIt)
 {
   for (const auto& [seed, index, count, width] : {std::tuple{19, 12, 100, 640}, std::tuple{89, 99, 100, 640},
                                                   std::tuple{131, 115, 150, 640}, std::tuple{47, 19, 50, 1280}})
-  {
-    SCOPED_TRACE(obliqueTrace(seed, index, width));
-    SpoolDetector detector;
-    const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
-    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
-    ASSERT_TRUE(d.detected && d.hole_detected);
-    ASSERT_TRUE(spool_vision::flangeMatches(spool_vision::targetSpool(frame.truth)->flange, d.flange));
-    expectHoleOnFrontRim(frame, detector, d);
-  }
+    expectObliqueHoleOnFrontRim(seed, index, count, width);
 }
 
 // Seen 33-38 deg off its axis, a flange whose ellipse gave no plausible pose (the conic's solution
@@ -665,6 +670,19 @@ TEST(FailureKinds, ADarkBoreInAnOvalFlangeIsMeasuredAsAnOval)
     EXPECT_LT(d.hole.r_horizontal, SpoolDetector::kNearAxisAspect * d.hole.r_vertical);
     expectHoleOnFrontRim(frame, detector, d);
   }
+}
+
+// Seen 25-35 deg off its axis and 50-100 px above or below the axis's vanishing point, a dark
+// bore's front rim is an ellipse tilted 5-12 deg from upright. Measured on the upright ellipse of
+// its size and aspect, fitted on the sharp half facing the vanishing point, it came out 1.2-1.5 px
+// off centre (oblique seed 131 #8 of 150, seed 97 #22 and seed 7 #12 of 100 at 640x480; seed 131
+// #39 of 60 at 1280x720): outside the evaluation's 1 px (1.5 px at 1280x720).
+// On the projected, tilted ellipse of a level spool's bore it is found within it.
+TEST(FailureKinds, ADarkBoreOffItsVanishingPointsRowIsMeasuredOnItsTiltedEllipse)
+{
+  for (const auto& [seed, index, count, width] : {std::tuple{131, 8, 150, 640}, std::tuple{97, 22, 100, 640},
+                                                  std::tuple{7, 12, 100, 640}, std::tuple{131, 39, 60, 1280}})
+    expectObliqueHoleOnFrontRim(seed, index, count, width);
 }
 
 // Seen 30-40 deg off its axis, a spool's front and back flanges make one outline, and a circle
