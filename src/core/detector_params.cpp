@@ -207,7 +207,8 @@ std::vector<ParamSpec> buildSpecs()
       number("track_level_pitch_sigma", FIELD(tracker.level_pitch_sigma), 0.0, 0.2, "rad",
              "> 0: the spool axis's pitch is taken as level (track_level_pitch) with this 1 sigma instead of "
              "the rim's measurement, biased 0.1-0.5 deg (spools lying on a level board, a level camera: the "
-             "job); 0 = measured from the rim (a shelf that is not level)"),
+             "job), and the detector fits an oblique bore's ellipse with that pitch; 0 = measured from the rim (a "
+             "shelf that is not level)"),
       number("track_level_pitch", FIELD(tracker.level_pitch), -0.5, 0.5, "",
              "slope y/z of a level spool's axis in the camera optical frame (tan of the camera's downward tilt)"),
       number("track_gate", FIELD(tracker.gate), 1.0, 100.0, "",
