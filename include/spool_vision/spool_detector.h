@@ -580,6 +580,17 @@ private:
   /// rim_ for a rim RimPoseSearch found: the frame's edges on it (gatherRim()) where there are
   /// kMinGatheredRim, else the search's moving edges.
   void takeObliqueRim();
+  /// searched_pose_ from oblique_rim_ (its rim just taken as the flange).
+  void keepSearchedPose();
+  /// True where `a` and `b` are the same fitted circle (centre and radii equal).
+  static bool sameCircle(const Circle& a, const Circle& b);
+  /// Where `result`'s flange is the rim searched_pose_ was found with and its pose has an axis: that pose's rim and
+  /// `result`'s own pose's rim measured by moving edges (RimPoseSearch::measure, kMeasuredRimMargin
+  /// more support asked) and the searched one, refined, taken where it supports more and is
+  /// plausible (SpoolGeometry::plausiblePose); true then, `result`'s pose and what follows from it
+  /// measured again. Uses own_rim_ and probe_rim_.
+  bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                                SpoolDetection& result);
   /// The rim RimPoseSearch found (oblique_rim_) as `result`'s flange, with `hole` as its bore; its
   /// edges as the rim (takeObliqueRim()) and the pose measured again.
   void takeSpoolAboutBore(const SpoolGeometry& geometry, const Circle& hole, SpoolDetection& result);
@@ -768,6 +779,15 @@ private:
   RimPoseSearch rim_pose_search_;
   RimPoseFit own_rim_;      ///< the result's own pose's rim (measureObliqueRim)
   RimPoseFit oblique_rim_;  ///< the search's best rim (measureObliqueRim)
+  /// A rim's pose as RimPoseSearch found it with the rim (undistorted px) it gave a spool taken
+  /// about a bore: the reported pose's rim fit starts from it too while that rim is the flange.
+  struct SearchedPose
+  {
+    Circle flange;
+    cv::Point3d position;  ///< m, camera optical frame
+    cv::Vec3d axis;        ///< unit
+  };
+  std::optional<SearchedPose> searched_pose_;
   ConcentricMatcher matcher_;
   std::optional<CameraIntrinsics> camera_;
   std::optional<SpoolGeometry> geometry_;

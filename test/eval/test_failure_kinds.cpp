@@ -98,6 +98,21 @@ std::string obliqueTrace(int seed, int index, int width)
 }
 
 // The oblique set's frame `index` of `count` from `seed` at `width` columns: the slot's spool is
+// found, its depth within `depth_tolerance` (a fraction) and its axis within `axis_tolerance` (rad).
+void expectObliquePose(int seed, int index, int count, int width, double depth_tolerance, double axis_tolerance)
+{
+  SCOPED_TRACE(obliqueTrace(seed, index, width));
+  SpoolDetector detector;
+  const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
+  SpoolDetection d;
+  expectSlotTargetDetected(detector, frame, depth_tolerance, &d);
+  ASSERT_TRUE(d.detected);
+  ASSERT_TRUE(std::isfinite(d.axis[2]));
+  EXPECT_LT(std::acos(std::clamp(d.axis.dot(frame.truth.axis), -1.0, 1.0)), axis_tolerance)
+      << "axis " << d.axis << ", truth " << frame.truth.axis;
+}
+
+// The oblique set's frame `index` of `count` from `seed` at `width` columns: the slot's spool is
 // found and its hole is its bore's front rim within the evaluation's tolerance.
 void expectObliqueHoleOnFrontRim(int seed, int index, int count, int width)
 {
@@ -525,17 +540,7 @@ TEST(FailureKinds, AnObliqueRimsPoseIsFittedFromItsAspectWhereItsEllipseGaveNone
 {
   for (const auto& [seed, index, count, width] : {std::tuple{97, 18, 100, 640}, std::tuple{43, 79, 100, 640},
                                                   std::tuple{131, 42, 60, 1280}, std::tuple{97, 82, 100, 320}})
-  {
-    SCOPED_TRACE(obliqueTrace(seed, index, width));
-    SpoolDetector detector;
-    const RenderedFrame frame = renderObliqueTarget(seed, index, count, width, detector);
-    SpoolDetection d;
-    expectSlotTargetDetected(detector, frame, 0.01, &d);
-    ASSERT_TRUE(d.detected);
-    ASSERT_TRUE(std::isfinite(d.axis[2]));
-    EXPECT_LT(std::acos(std::clamp(d.axis.dot(frame.truth.axis), -1.0, 1.0)), 4.0 * M_PI / 180.0)
-        << "axis " << d.axis << ", truth " << frame.truth.axis;
-  }
+    expectObliquePose(seed, index, count, width, 0.01, 4.0 * kDeg);
 }
 
 // A rib ring taken as the flange of a spool seen 20-45 deg off its axis (oblique seed 7 #11, seed
@@ -683,6 +688,19 @@ TEST(FailureKinds, ADarkBoreOffItsVanishingPointsRowIsMeasuredOnItsTiltedEllipse
   for (const auto& [seed, index, count, width] : {std::tuple{131, 8, 150, 640}, std::tuple{97, 22, 100, 640},
                                                   std::tuple{7, 12, 100, 640}, std::tuple{131, 39, 60, 1280}})
     expectObliqueHoleOnFrontRim(seed, index, count, width);
+}
+
+// Seen 20-35 deg off its axis, a spool whose rim the pose search found about its bore (the axis
+// within 0.3 deg) was reported with the pose fitted afterwards on the rim's edges gathered from the
+// frame, started from its flange's ellipse: through the rim's near side and a rib it ran to a pose
+// 7-29 deg off (oblique seed 19 #8, seed 7 #89, seed 97 #0 of 100 at 640x480, up to 4% deep or short;
+// seed 19 #10 of 50 at 1280x720). Measured alike by moving edges, the searched pose's rim is
+// supported more: reported, the axis is within 1.5 deg and the depth within 1%.
+TEST(FailureKinds, AnObliqueSpoolIsReportedAtThePoseItsRimWasFoundAt)
+{
+  for (const auto& [seed, index, count, width] : {std::tuple{19, 8, 100, 640}, std::tuple{7, 89, 100, 640},
+                                                  std::tuple{97, 0, 100, 640}, std::tuple{19, 10, 50, 1280}})
+    expectObliquePose(seed, index, count, width, 0.01, 1.5 * kDeg);
 }
 
 // Seen 30-40 deg off its axis, a spool's front and back flanges make one outline, and a circle
