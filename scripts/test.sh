@@ -40,16 +40,26 @@ counted rviz_demo ./scripts/rviz_demo_check.sh
 import glob, sys, xml.etree.ElementTree as ET
 passed = failed = skipped = 0
 suites = 0
+def failing(case):
+    return case.find("failure") is not None or case.find("error") is not None
 for path in glob.glob(sys.argv[1] + "/**/*.xml", recursive=True):
     root = ET.parse(path).getroot()
     for case in root.iter("testcase"):
         if case.find("skipped") is not None:
             skipped += 1
-        elif case.find("failure") is not None or case.find("error") is not None:
+        elif failing(case):
             failed += 1
             print("FAILED:", path.split("/")[-1], case.get("classname"), case.get("name"))
         else:
             passed += 1
+    # A suite that errored before its cases ran (a rostest node timing out in its set-up) reports
+    # errors with no failing case to show for them: each counts as a failed test.
+    for suite in [root] if root.tag == "testsuite" else root.findall(".//testsuite"):
+        reported = sum(int(suite.get(key) or 0) for key in ("errors", "failures"))
+        shown = sum(1 for case in suite.iter("testcase") if failing(case))
+        if reported > shown:
+            failed += reported - shown
+            print("FAILED:", path.split("/")[-1], suite.get("name"), f"{reported - shown} error(s) outside its test cases")
     suites += 1
 if suites == 0 or passed + failed == 0:
     print("no test results found in", sys.argv[1])
