@@ -172,6 +172,11 @@ public:
   static constexpr double kSecondSearchRimScore = 0.55;
   /// A free hole fit's centre lies within this fraction of its radius of the bore's.
   static constexpr double kKnownSizeShift = 0.25;
+  /// How far (px) the reported bore of a pose near its axis may move when measured again on the
+  /// pose's ellipse: it was measured at its known size already (the misses were 1.0-1.2 px), and a
+  /// search over a quarter of its radius on every such frame cost 14% of main 640x480's
+  /// instructions.
+  static constexpr double kReportedBoreShift = 2.0;
   /// rad: a spool axis this far off the optical axis (offAxis()) puts its bore's lit wall on
   /// another side than the principal point's (remeasureBore()), and its own rim, cut by
   /// the frame, is sampled as densely as a whole one (measureObliqueRim()).
@@ -314,9 +319,10 @@ private:
   /// unchanged: it stays the evidence the spool was taken on); the position moved through it.
   /// With the spool's `axis` (seen far off it: offAxis()), the lit wall on the side it gives;
   /// without, the flange's measured ellipse gives the bore's shape. `sized_by_pose`: as
-  /// measureBoreAtKnownSize().
+  /// measureBoreAtKnownSize(); `max_shift` too (px the centre may move; default: a quarter of its
+  /// radius and a px).
   void remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis, bool sized_by_pose,
-                     SpoolDetection& result);
+                     SpoolDetection& result, std::optional<double> max_shift = std::nullopt);
   /// Whether `result`'s bore was measured round while its flange measures as an ellipse narrower
   /// than kNearAxisAspect: the bore was measured on the flange's Hough circle, before the flange's
   /// pose, and where the pose gives no axis nothing measured it again (a 0.8-wide dark bore 2-5

@@ -335,10 +335,12 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // the frame's edge: hard seed 7 #1, #56, at 640x480). The checks above keep the size its flange's
   // ellipse gives, which they were set on.
   const bool reported = whole_frame && !along_rim && !inner_ring;
-  if (reported && !searchedPoseSupportsMore(image, format, geometry, result))
-    geometry.measureFromAspect(result, rim_);
-  if (off_axis_bore || (reported && std::isfinite(result.axis[2])))
+  const bool searched_pose_taken = reported && searchedPoseSupportsMore(image, format, geometry, result);
+  if (off_axis_bore ||
+      ((searched_pose_taken || (reported && geometry.measureFromAspect(result, rim_))) && offAxis(result.axis)))
     remeasureBore(geometry, result.axis, true, result);
+  else if (reported && std::isfinite(result.axis[2]))
+    remeasureBore(geometry, result.axis, true, result, kReportedBoreShift);
   toFramePixels(geometry.camera(), result);
   bool outer_taken = false;
   // Whatever is reported now is no longer the spool about that bore.
@@ -1716,10 +1718,10 @@ bool SpoolDetector::roundBoreInOvalFlange(const SpoolDetection& result)
 }
 
 void SpoolDetector::remeasureBore(const SpoolGeometry& geometry, const std::optional<cv::Vec3d>& axis,
-                                  bool sized_by_pose, SpoolDetection& result)
+                                  bool sized_by_pose, SpoolDetection& result, std::optional<double> max_shift)
 {
   const double score = result.hole.score;
-  if (!measureBoreAtKnownSize(result, std::nullopt, axis, sized_by_pose))
+  if (!measureBoreAtKnownSize(result, max_shift, axis, sized_by_pose))
     return;
   // The score stays the evidence the spool was taken on (the second search's gate reads it): a
   // half rim at a given size scores higher than the free fit did.
