@@ -319,17 +319,32 @@ private:
   /// ellipse of `model` (centre, r_horizontal, r_vertical) that support it for `sign`
   /// (centreSign); returns their count.
   std::size_t pickBand(const Circle& model, double band, float sign);
-  /// The edges of near_ within `band` px of the ellipse `shape` centred at
+  /// An ellipse's normalised radius, set up once per fit (its tilt's sine and cosine): rho^2 =
+  /// xx vx^2 + xy vx vy + yy vy^2 for an offset (vx, vy) px from its centre, 1 on the ellipse;
+  /// mean_r its geometric mean semi-axis (px).
+  struct EllipseForm
+  {
+    explicit EllipseForm(const EllipseShape& shape);
+    double rho2(double vx, double vy) const
+    {
+      return vx * vx * xx + vx * vy * xy + vy * vy * yy;
+    }
+    double mean_r;
+    double xx = 0.0;
+    double xy = 0.0;
+    double yy = 0.0;
+  };
+  /// The edges of near_ within `band` px of the ellipse `form` centred at
   /// `c` that support it for `sign` (centreSign), each weighted by how close it lies (1 on the
   /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of
   /// a grid step. `count`, if given, gets the plain count.
-  double ellipseSupport(const cv::Point2d& c, const EllipseShape& shape, double band, float sign, int* count) const;
+  double ellipseSupport(const cv::Point2d& c, const EllipseForm& form, double band, float sign, int* count) const;
   // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start`.
   cv::Point2d bestCentre(const cv::Point2d& start, const EllipseShape& shape, double band, double max_shift, float sign,
                          double& best_soft) const;
   // fitCentreAndScale()'s rating of a centre: the best soft support density over the scales lo +
   // k kScaleStep, k <= steps (that scale into `scale`).
-  double bestScaleAt(const cv::Point2d& c, const EllipseShape& shape, double lo, int steps, float sign, double& scale);
+  double bestScaleAt(const cv::Point2d& c, const EllipseForm& form, double lo, int steps, float sign, double& scale);
   // The rim model at `centre` with its score over near_ (refine()'s, over `side`'s half).
   bool supportAt(cv::Size image_size, const HoughSearch& search, const cv::Point2d& centre, const EllipseShape& shape,
                  const cv::Point2d& side, Circle& circle) const;

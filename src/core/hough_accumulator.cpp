@@ -1082,37 +1082,21 @@ bool HoughAccumulator::fitAt(const std::vector<EdgePoint>& edges, cv::Size image
   return circle.visible_fraction >= search.min_visible_fraction;
 }
 
-namespace
+HoughAccumulator::EllipseForm::EllipseForm(const EllipseShape& shape) : mean_r(std::sqrt(shape.semi_x * shape.semi_y))
 {
-// An ellipse's normalised radius: rho^2 = xx vx^2 + xy vx vy + yy vy^2 for an offset (vx, vy)
-// from its centre, 1 on the ellipse.
-struct EllipseForm
-{
-  explicit EllipseForm(const EllipseShape& shape)
-  {
-    const double c = std::cos(shape.tilt);
-    const double s = std::sin(shape.tilt);
-    const double ix2 = 1.0 / (shape.semi_x * shape.semi_x);
-    const double iy2 = 1.0 / (shape.semi_y * shape.semi_y);
-    xx = c * c * ix2 + s * s * iy2;
-    xy = 2.0 * c * s * (ix2 - iy2);
-    yy = s * s * ix2 + c * c * iy2;
-  }
-  double rho2(double vx, double vy) const
-  {
-    return vx * vx * xx + vx * vy * xy + vy * vy * yy;
-  }
-  double xx;
-  double xy;
-  double yy;
-};
-}  // namespace
+  const double c = std::cos(shape.tilt);
+  const double s = std::sin(shape.tilt);
+  const double ix2 = 1.0 / (shape.semi_x * shape.semi_x);
+  const double iy2 = 1.0 / (shape.semi_y * shape.semi_y);
+  xx = c * c * ix2 + s * s * iy2;
+  xy = 2.0 * c * s * (ix2 - iy2);
+  yy = s * s * ix2 + c * c * iy2;
+}
 
-double HoughAccumulator::ellipseSupport(const cv::Point2d& c, const EllipseShape& shape, double band, float sign,
+double HoughAccumulator::ellipseSupport(const cv::Point2d& c, const EllipseForm& form, double band, float sign,
                                         int* count) const
 {
-  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
-  const EllipseForm form(shape);
+  const double mean_r = form.mean_r;
   double soft = 0.0;
   int n = 0;
   for (std::size_t i = 0; i < near_count_; ++i)
@@ -1168,17 +1152,17 @@ cv::Point2d searchCentre(const cv::Point2d& start, double reach, Score score, do
 cv::Point2d HoughAccumulator::bestCentre(const cv::Point2d& start, const EllipseShape& shape, double band,
                                          double max_shift, float sign, double& best_soft) const
 {
+  const EllipseForm form(shape);
   return searchCentre(
-      start, max_shift, [&](const cv::Point2d& c) { return ellipseSupport(c, shape, band, sign, nullptr); }, best_soft);
+      start, max_shift, [&](const cv::Point2d& c) { return ellipseSupport(c, form, band, sign, nullptr); }, best_soft);
 }
 
-double HoughAccumulator::bestScaleAt(const cv::Point2d& c, const EllipseShape& shape, double lo, int steps, float sign,
+double HoughAccumulator::bestScaleAt(const cv::Point2d& c, const EllipseForm& form, double lo, int steps, float sign,
                                      double& scale)
 {
   // ellipseSupport() at every scale s in one pass: an edge at normalised radius rho is off the
   // scaled ellipse by |rho - s| mean_r px.
-  const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
-  const EllipseForm form(shape);
+  const double mean_r = form.mean_r;
   auto band_at = [&](int k) { return std::max(0.75, 0.04 * (lo + k * kScaleStep) * mean_r); };
   const double widest = band_at(steps) / mean_r;
   scale_soft_.assign(static_cast<std::size_t>(steps) + 1, 0.0);
@@ -1243,10 +1227,11 @@ bool HoughAccumulator::fitCentreAndScale(const std::vector<EdgePoint>& edges, cv
   const int steps = static_cast<int>(std::floor((hi - lo) / kScaleStep + 1e-9));
   double scale = 1.0;
   double density = 0.0;
+  const EllipseForm form(shape);
   const cv::Point2d best_centre = searchCentre(
-      start, max_shift, [&](const cv::Point2d& c) { return bestScaleAt(c, shape, lo, steps, sign, scale); }, density);
+      start, max_shift, [&](const cv::Point2d& c) { return bestScaleAt(c, form, lo, steps, sign, scale); }, density);
   double best_scale = 1.0;
-  bestScaleAt(best_centre, shape, lo, steps, sign, best_scale);
+  bestScaleAt(best_centre, form, lo, steps, sign, best_scale);
   const double band = std::max(0.75, 0.04 * best_scale * mean_r);
   gatherNear(edges, best_centre, best_scale * smallest - band, best_scale * largest + band, side);
   return supportAt(image_size, search, best_centre, shape.scaled(best_scale), side, circle);
@@ -1258,7 +1243,7 @@ bool HoughAccumulator::supportAt(cv::Size image_size, const HoughSearch& search,
   const double mean_r = std::sqrt(shape.semi_x * shape.semi_y);
   const double band = std::max(0.75, 0.04 * mean_r);
   int count = 0;
-  ellipseSupport(centre, shape, band, centreSign(search.polarity), &count);
+  ellipseSupport(centre, EllipseForm(shape), band, centreSign(search.polarity), &count);
   if (count < 8)
     return false;
   circle.x = centre.x;
