@@ -590,11 +590,15 @@ private:
   void keepSearchedPose();
   /// True where `a` and `b` are the same fitted circle (centre and radii equal).
   static bool sameCircle(const Circle& a, const Circle& b);
-  /// Where `result`'s flange is the rim searched_pose_ was found with and its pose has an axis: that pose's rim and
-  /// `result`'s own pose's rim measured by moving edges (RimPoseSearch::measure, kMeasuredRimMargin
-  /// more support asked) and the searched one, refined, taken where it supports more and is
-  /// plausible (SpoolGeometry::plausiblePose); true then, `result`'s pose and what follows from it
-  /// measured again. Uses own_rim_ and probe_rim_.
+  /// Where `result`'s pose has an axis: a searched pose's rim and `result`'s own pose's rim
+  /// measured by moving edges (RimPoseSearch::measure, kMeasuredRimMargin more support asked) and
+  /// the searched one, refined, taken where it supports more and is plausible
+  /// (SpoolGeometry::plausiblePose); true then, `result`'s pose and what follows from it measured
+  /// again. The searched pose is searched_pose_ where `result`'s flange is the rim it was found
+  /// with; for any other flange whose own pose's rim keeps under kObliqueRimSupport, the pose of
+  /// the rim searched about the bore (searchRimAbout(), with its in-view retry) that agrees with
+  /// the bore's size (boreAgreesWith()), both rims then sampled as densely in view as a whole rim.
+  /// `result` in undistorted px. Uses own_rim_, oblique_rim_ and probe_rim_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result);
   /// The rim RimPoseSearch found (oblique_rim_) as `result`'s flange, with `hole` as its bore; its
