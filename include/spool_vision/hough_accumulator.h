@@ -375,6 +375,8 @@ private:
   /// buffer only grows: gatherNear() writes every edge it reads).
   std::vector<EdgePoint> near_;
   std::size_t near_count_ = 0;
+  /// ellipseSupport(): each of near_'s edges' weight (a scratch buffer gatherNear() sizes).
+  mutable std::vector<double> ellipse_weights_;
   std::vector<std::uint32_t> taken_;  ///< refine(): indices into near_ of one pass's points
   std::vector<std::uint8_t> keep_;    ///< gatherNear(), refine(): 1 per edge kept
 };

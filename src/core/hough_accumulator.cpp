@@ -165,6 +165,25 @@ SPOOL_VISION_PIXEL_LOOP void inEllipseBand(const EdgePoint* edges, std::size_t c
   }
 }
 
+// weight[i] = 1 - off / band where edges[i] lies off = |rho - 1| mean_r px off the ellipse about
+// `c` (rho^2 = xx vx^2 + xy vx vy + yy vy^2, HoughAccumulator::EllipseForm) within `band` and is
+// radial() for `sign`; else -1. Vectorised, no branch per edge; in double, each lane doing what a
+// plain loop does, so that the sums over it (in edge order) are the same.
+SPOOL_VISION_PIXEL_LOOP void ellipseWeights(const EdgePoint* edges, std::size_t count, cv::Point2d c, double xx,
+                                            double xy, double yy, double mean_r, double band, float sign,
+                                            double* weight)
+{
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    const EdgePoint& e = edges[i];
+    const double vx = e.x - c.x;
+    const double vy = e.y - c.y;
+    const double off = std::abs(std::sqrt(vx * vx * xx + vx * vy * xy + vy * vy * yy) - 1.0) * mean_r;
+    const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
+    weight[i] = ((off <= band) & aligned) ? 1.0 - off / band : -1.0;
+  }
+}
+
 // 3x3 Sobel and squared magnitude with replicated borders, into gx, gy (CV_16S) and mag (CV_32S)
 // of gray8's size. Each row in plain passes the compiler vectorises: the column sums and
 // differences first (into `sum` and `diff`, gray8.cols + 2 each: padded by the replicated border),
@@ -874,6 +893,8 @@ void HoughAccumulator::gatherNear(const std::vector<EdgePoint>& edges, const cv:
     near_.resize(edges.size());
   if (keep_.size() < edges.size())
     keep_.resize(edges.size());
+  if (ellipse_weights_.size() < edges.size())
+    ellipse_weights_.resize(edges.size());
   inAnnulus(edges.data(), edges.size(), centre, inner2, outer2, side, keep_.data());
   // Every edge is written and the count advances over the ones kept: no branch per edge.
   std::size_t kept = 0;
@@ -1096,18 +1117,15 @@ HoughAccumulator::EllipseForm::EllipseForm(const EllipseShape& shape) : mean_r(s
 double HoughAccumulator::ellipseSupport(const cv::Point2d& c, const EllipseForm& form, double band, float sign,
                                         int* count) const
 {
-  const double mean_r = form.mean_r;
+  ellipseWeights(near_.data(), near_count_, c, form.xx, form.xy, form.yy, form.mean_r, band, sign,
+                 ellipse_weights_.data());
   double soft = 0.0;
   int n = 0;
   for (std::size_t i = 0; i < near_count_; ++i)
   {
-    const EdgePoint& e = near_[i];
-    const double vx = e.x - c.x;
-    const double vy = e.y - c.y;
-    const double off = std::abs(std::sqrt(form.rho2(vx, vy)) - 1.0) * mean_r;
-    const bool aligned = radial(vx, vy, vx * vx + vy * vy, e, sign);
-    const bool supports = (off <= band) & aligned;
-    soft += supports ? 1.0 - off / band : 0.0;
+    const double w = ellipse_weights_[i];
+    const bool supports = w >= 0.0;
+    soft += supports ? w : 0.0;
     n += supports ? 1 : 0;
   }
   if (count)
