@@ -79,6 +79,9 @@ public:
 
   /// The point at `depth` (m) seen at pixel (u, v), camera optical frame (pinhole).
   cv::Point3d backProject(double u, double v, double depth) const;
+  /// The undistorted pixel (px) at which `point` (camera optical frame, m, z > 0) is seen
+  /// (pinhole): backProject()'s inverse.
+  cv::Point2d project(const cv::Point3d& point) const;
 
   /// Yaw (rad) of a flange centred at column u, relative to the reference column.
   /// pinhole: atan((u - u_ref) / fx); linear_fov: FOV / sqrt(w^2 + h^2) * (u - u_ref).

@@ -168,6 +168,11 @@ cv::Point3d SpoolGeometry::backProject(double u, double v, double depth) const
   return {(u - camera_.cx) / camera_.fx * depth, (v - camera_.cy) / camera_.fy * depth, depth};
 }
 
+cv::Point2d SpoolGeometry::project(const cv::Point3d& point) const
+{
+  return {camera_.fx * point.x / point.z + camera_.cx, camera_.fy * point.y / point.z + camera_.cy};
+}
+
 cv::Size2d SpoolGeometry::boreExtent(const cv::Point3d& position, const cv::Vec3d& axis) const
 {
   const EllipseShape shape = boreEllipse(position, axis);
