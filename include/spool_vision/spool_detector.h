@@ -598,7 +598,8 @@ private:
   /// with; for any other flange whose own pose's rim keeps under kObliqueRimSupport, the pose of
   /// the rim searched about the bore (searchRimAbout(), with its in-view retry) that agrees with
   /// the bore's size (boreAgreesWith()), both rims then sampled as densely in view as a whole rim.
-  /// `result` in undistorted px. Uses own_rim_, oblique_rim_ and probe_rim_.
+  /// A searched pose whose rim keeps no fit about the hole is measured about the bore centre it
+  /// projects to. `result` in undistorted px. Uses own_rim_, oblique_rim_ and probe_rim_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result);
   /// The rim RimPoseSearch found (oblique_rim_) as `result`'s flange, with `hole` as its bore; its

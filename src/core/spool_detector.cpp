@@ -693,15 +693,10 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
     return false;
   const bool searched = searched_pose_ && sameCircle(searched_pose_->flange, result.flange);
   // Both poses' rims measured alike: by moving edges from the pose, the support of its 3-D fit
-  // about the hole; the searched one, where it keeps no fit there, about the centre it projects
-  // to (the search fitted that centre within kBoreOffCentre of a bore measured again since:
-  // oblique seed 19 #94 at 640x480, 8 px off the hole; reported now, 1.5 deg off the axis against
-  // 25). (About that centre in any case, the searched poses reported were 1-2 deg worse on the
-  // frames of FailureKinds.AnObliqueSpoolIsReportedAtThePoseItsRimWasFoundAt.) A
-  // flange no rim search found may be half cut by the frame near the camera: its rims are sampled
-  // as densely in view as a whole rim and the search below retried so (without, oblique seed 89
-  // #54 and 131 #39 at 640x480 kept poses 21 and 43 deg off). (Where the search found the flange,
-  // so sampled, 12 poses changed on oblique seeds 7-131 at 640x480, 7 of them 0.5-3.6 deg the worse.)
+  // about the hole. A flange no rim search found may be half cut by the frame near the camera:
+  // its rims are sampled as densely in view as a whole rim, and the search below retried so
+  // (without, oblique seed 89 #54 and 131 #39 at 640x480 kept poses 21 and 43 deg off; for a
+  // searched flange, 7 of the 12 poses it changed on the oblique sets at 640x480 came out worse).
   RimSearch search = obliqueRimSearch(result.flange.r_vertical);
   search.samples_in_view = !searched;
   const cv::Point2d bore(result.hole.x, result.hole.y);
@@ -720,6 +715,11 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
     return false;
   const SearchedPose pose =
       searched ? *searched_pose_ : SearchedPose{oblique_rim_.rim, oblique_rim_.position, oblique_rim_.axis};
+  // The search fitted the rim's centre within kBoreOffCentre of the bore it searched about, which
+  // may have been measured again since: where the searched pose's rim keeps no fit about the hole,
+  // it is measured about the centre it projects to (oblique seed 19 #94 at 640x480: 8 px apart;
+  // reported now, 1.5 deg off the axis against 25). Not in every case: the searched poses
+  // reported then came out 1-2 deg worse (FailureKinds.AnObliqueSpoolIsReportedAtThePoseItsRimWasFoundAt).
   if (!(rim_pose_search_.measure(image, format, geometry, bore, pose.position, pose.axis, search, probe_rim_) ||
         rim_pose_search_.measure(image, format, geometry, geometry.project(pose.position), pose.position, pose.axis,
                                  search, probe_rim_)) ||

@@ -55,6 +55,26 @@ TEST(SpoolGeometry, PinholeYawIsTheRayAngle)
   EXPECT_GT(g.yaw(81.0, 80.0), 0.0);  // right of the reference is positive
 }
 
+TEST(SpoolGeometry, ProjectIsBackProjectsInverse)
+{
+  // An off-centre principal point and unequal focal lengths, so that a swapped axis shows.
+  CameraIntrinsics camera = CameraIntrinsics::thesisDefault(640, 480);
+  camera.fy = 790.0;
+  camera.cx = 331.5;
+  camera.cy = 231.5;
+  const SpoolGeometry g(GeometryParams(), camera);
+  // A point 0.1 m right, 0.05 m down at 0.8 m: fx X / Z + cx = 800 * 0.125 + 331.5.
+  const cv::Point2d seen = g.project({0.1, 0.05, 0.8});
+  EXPECT_NEAR(seen.x, 431.5, 1e-9);
+  EXPECT_NEAR(seen.y, 231.5 + 790.0 * 0.0625, 1e-9);
+  for (const cv::Point2d& pixel : {cv::Point2d(0.0, 0.0), cv::Point2d(639.0, 17.25), cv::Point2d(12.5, 470.0)})
+  {
+    const cv::Point2d back = g.project(g.backProject(pixel.x, pixel.y, 0.63));
+    EXPECT_NEAR(back.x, pixel.x, 1e-9);
+    EXPECT_NEAR(back.y, pixel.y, 1e-9);
+  }
+}
+
 TEST(SpoolGeometry, ReferencePoint)
 {
   GeometryParams p;
