@@ -713,16 +713,16 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
                     !searchRimAbout(image, format, geometry, result.hole, kBoreRimFallbackPoses, std::nullopt, true) ||
                     !boreAgreesWith(result.hole, oblique_rim_)))
     return false;
-  const SearchedPose pose =
-      searched ? *searched_pose_ : SearchedPose{oblique_rim_.rim, oblique_rim_.position, oblique_rim_.axis};
+  const cv::Point3d& position = searched ? searched_pose_->position : oblique_rim_.position;
+  const cv::Vec3d& axis = searched ? searched_pose_->axis : oblique_rim_.axis;
   // The search fitted the rim's centre within kBoreOffCentre of the bore it searched about, which
   // may have been measured again since: where the searched pose's rim keeps no fit about the hole,
   // it is measured about the centre it projects to (oblique seed 19 #94 at 640x480: 8 px apart;
   // reported now, 1.5 deg off the axis against 25). Not in every case: the searched poses
   // reported then came out 1-2 deg worse (FailureKinds.AnObliqueSpoolIsReportedAtThePoseItsRimWasFoundAt).
-  if (!(rim_pose_search_.measure(image, format, geometry, bore, pose.position, pose.axis, search, probe_rim_) ||
-        rim_pose_search_.measure(image, format, geometry, geometry.project(pose.position), pose.position, pose.axis,
-                                 search, probe_rim_)) ||
+  if (!(rim_pose_search_.measure(image, format, geometry, bore, position, axis, search, probe_rim_) ||
+        rim_pose_search_.measure(image, format, geometry, geometry.project(position), position, axis, search,
+                                 probe_rim_)) ||
       !(probe_rim_.support >= own + kMeasuredRimMargin) ||
       !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis,
                                     geometry.depthFromDiameter(2.0 * result.flange.r_vertical)))
@@ -1562,9 +1562,8 @@ std::optional<SpoolDetector::BoreShape> SpoolDetector::boreShape(const SpoolDete
   }
   else if (axis)
   {
-    const cv::Vec3d ray =
-        cv::normalize(cv::Vec3d((hole.x - camera.cx) / camera.fx, (hole.y - camera.cy) / camera.fy, 1.0));
-    shape.ellipse.semi_x = height * std::abs(ray.dot(*axis));
+    const cv::Point3d ray = geometry_->backProject(hole.x, hole.y, 1.0);
+    shape.ellipse.semi_x = height * std::abs(cv::normalize(cv::Vec3d(ray.x, ray.y, ray.z)).dot(*axis));
   }
   if (height < kMinKnownSizeRadius)
     return std::nullopt;
