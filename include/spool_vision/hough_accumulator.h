@@ -254,6 +254,13 @@ public:
   bool fitCentreAndScale(const std::vector<EdgePoint>& edges, cv::Size image_size, const HoughSearch& search,
                          const cv::Point2d& start, const EllipseShape& shape, double max_shift, const cv::Point2d& side,
                          double lo, double hi, Circle& circle);
+  /// How well `edges` bear out a rim of `shape` (px) whose centre is within `max_shift` px of
+  /// `start` (px): the soft support of ellipseSupport() (edges of `search.polarity` within a band
+  /// of 4% of the mean radius, weighted by closeness) at the best such centre (to 0.3 px), per px
+  /// of the ellipse's perimeter (Ramanujan's approximation), so that shapes of one rim compare (a
+  /// bore seen at different angles off its axis). 0 where no edge supports it. Uses near_.
+  double shapeDensity(const std::vector<EdgePoint>& edges, const HoughSearch& search, const cv::Point2d& start,
+                      const EllipseShape& shape, double max_shift);
   /// fitCentreAndScale()'s step in scale (a fraction of the given size)
   static constexpr double kScaleStep = 0.02;
 
@@ -339,9 +346,10 @@ private:
   /// ellipse, 0 at the band's edge): a soft count, so the best centre is found to a fraction of
   /// a grid step. `count`, if given, gets the plain count.
   double ellipseSupport(const cv::Point2d& c, const EllipseForm& form, double band, float sign, int* count) const;
-  // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start`.
+  // fitCentreAtSize()'s centre search: coarse to fine grids of ellipseSupport() about `start` (the
+  // first `grids` of 1, 0.3, 0.06 and 0.02 px).
   cv::Point2d bestCentre(const cv::Point2d& start, const EllipseShape& shape, double band, double max_shift, float sign,
-                         double& best_soft) const;
+                         double& best_soft, int grids = 4) const;
   // fitCentreAndScale()'s rating of a centre: the best soft support density over the scales lo +
   // k kScaleStep, k <= steps (that scale into `scale`).
   double bestScaleAt(const cv::Point2d& c, const EllipseForm& form, double lo, int steps, float sign, double& scale);

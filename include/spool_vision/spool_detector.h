@@ -598,10 +598,44 @@ private:
   /// with; for any other flange whose own pose's rim keeps under kObliqueRimSupport, the pose of
   /// the rim searched about the bore (searchRimAbout(), with its in-view retry) that agrees with
   /// the bore's size (boreAgreesWith()), both rims then sampled as densely in view as a whole rim.
-  /// A searched pose whose rim keeps no fit about the hole is measured about the bore centre it
-  /// projects to. `result` in undistorted px. Uses own_rim_, oblique_rim_ and probe_rim_.
+  /// The same rim is searched for where the bore's own shape is clearly more oblique than the pose
+  /// (boreViewBeyond(); also for a pose without an axis, whose rim's aspect gives its angle), and
+  /// its pose taken where its rim keeps within kBoreViewMargin of the own pose's support and its
+  /// angle off the axis is nearer the bore's (without an axis, its depth also within
+  /// kBoreViewDepthAgreement of Eq. 3.2's on the flange). A searched pose whose rim keeps no fit
+  /// about the hole is measured about the bore centre it projects to. `result` in undistorted px.
+  /// Uses own_rim_, oblique_rim_, probe_rim_ and hole_edges_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result);
+  /// The angle (rad) between the spool's axis and the line of sight that `hole`'s rim (undistorted
+  /// px) bears out, where it is at least kBoreViewGap beyond `pose_angle` (rad) and clearly so. The
+  /// bore's front rim is a circle on the flange's face: seen at an angle off the axis, a level
+  /// spool's is an upright ellipse narrowed across by its cosine (thesis Eq. 3.1's circle, turned).
+  /// Of such ellipses at the rim's vertical semi-axis, every kBoreViewStep up to kBoreViewMax, the
+  /// one the edges bear out best (HoughAccumulator::shapeDensity()) must have kBoreViewRatio times
+  /// the density of the pose's; the search stops at the first unless it has kBoreViewEarly of it
+  /// (past the bore's own angle the density falls). NaN otherwise, and for a bore under
+  /// kMinKnownSizeRadius. Uses hole_edges_.
+  double boreViewBeyond(const Circle& hole, double pose_angle);
+  /// boreViewBeyond()'s least lead over the pose (rad: 10 deg), its steps (4 deg) and its largest
+  /// angle (45 deg: the oblique sets reach 40 deg off the axis).
+  static constexpr double kBoreViewGap = 10.0 * M_PI / 180.0;
+  static constexpr double kBoreViewStep = 4.0 * M_PI / 180.0;
+  static constexpr double kBoreViewMax = 45.0 * M_PI / 180.0;
+  /// ... how much better its ellipse must be borne out than the pose's (on the 19 rendered sets of
+  /// sessions 38-48, 1.2 kept a third of the gains of 1.1; 1.05 with a 6 deg lead took two poses
+  /// 30-67 deg off), and the first step's least share of the pose's density.
+  static constexpr double kBoreViewRatio = 1.1;
+  static constexpr double kBoreViewEarly = 0.9;
+  /// ... and how far its centre is searched: this fraction of its vertical semi-axis, at least 1 px.
+  static constexpr double kBoreViewShift = 0.1;
+  /// How much less support a rim searched on the bore's word may keep than the pose's own: the two
+  /// rims are about the same circle (a round fit about an oblique rim keeps 0.6-0.65 of its
+  /// samples, the right pose as much).
+  static constexpr double kBoreViewMargin = 0.05;
+  /// The depth agreement with Eq. 3.2 asked of a searched pose replacing one without an axis (a cut
+  /// rim's vertical semi-axis gives the depth within 6%: SpoolGeometry::plausiblePose()).
+  static constexpr double kBoreViewDepthAgreement = 0.06;
   /// The rim RimPoseSearch found (oblique_rim_) as `result`'s flange, with `hole` as its bore; its
   /// edges as the rim (takeObliqueRim()) and the pose measured again.
   void takeSpoolAboutBore(const SpoolGeometry& geometry, const Circle& hole, SpoolDetection& result);

@@ -686,12 +686,10 @@ bool SpoolDetector::sameCircle(const Circle& a, const Circle& b)
 bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                              SpoolDetection& result)
 {
-  // A pose without an axis is fitted from the ellipse's aspect (SpoolGeometry::measureFromAspect),
-  // which puts the depth nearer than the searched pose does (1.7% and 0.6% off on oblique seed 131 #42
-  // at 1280x720).
-  if (!result.hole_detected || !std::isfinite(result.axis[2]))
+  if (!result.hole_detected)
     return false;
-  const bool searched = searched_pose_ && sameCircle(searched_pose_->flange, result.flange);
+  const bool has_axis = std::isfinite(result.axis[2]);
+  const bool searched = has_axis && searched_pose_ && sameCircle(searched_pose_->flange, result.flange);
   // Both poses' rims measured alike: by moving edges from the pose, the support of its 3-D fit
   // about the hole. A flange no rim search found may be half cut by the frame near the camera:
   // its rims are sampled as densely in view as a whole rim, and the search below retried so
@@ -700,16 +698,35 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
   RimSearch search = obliqueRimSearch(result.flange.r_vertical);
   search.samples_in_view = !searched;
   const cv::Point2d bore(result.hole.x, result.hole.y);
-  const double own =
-      rim_pose_search_.measure(image, format, geometry, bore, result.position, result.axis, search, own_rim_)
-          ? own_rim_.support
-          : 0.0;
+  const double own = has_axis && rim_pose_search_.measure(image, format, geometry, bore, result.position, result.axis,
+                                                          search, own_rim_)
+                         ? own_rim_.support
+                         : 0.0;
+  // The bore's own shape is a second witness of the axis (oblique seed 89 #42 at 640x480: a round
+  // circle's pose 13 deg off the line of sight keeps 0.53 of its rim, its depth 10% short; the
+  // bore's rim bears out 40 deg, the truth's 39). Not where the lit lens shows through the bore
+  // and agrees with it (measureBoreParallax()): the line of sight is then within atan(36/200) = 10
+  // deg of the axis, and the lens's own rim narrows the bore's edges (15-30 deg read on the main
+  // set's frames 3-6 deg off). A pose without an axis is fitted from the ellipse's aspect
+  // (SpoolGeometry::measureFromAspect), which puts the depth nearer than the searched pose does
+  // (1.7% and 0.6% off on oblique seed 131 #42 at 1280x720): it is searched again only on the
+  // bore's word.
+  const cv::Vec3d sight = cv::normalize(cv::Vec3d(result.position.x, result.position.y, result.position.z));
+  auto view_angle = [&](const cv::Vec3d& axis) { return std::acos(std::min(1.0, std::abs(sight.dot(axis)))); };
+  const double pose_angle = has_axis              ? view_angle(result.axis)
+                            : oval(result.flange) ? std::acos(result.flange.r_horizontal / result.flange.r_vertical)
+                                                  : 0.0;
+  const double bore_angle = searched || result.parallax_measured ? std::numeric_limits<double>::quiet_NaN()
+                                                                 : boreViewBeyond(result.hole, pose_angle);
+  const bool bore_oblique = std::isfinite(bore_angle);
+  if (!has_axis && !bore_oblique)
+    return false;
   // A flange found otherwise (a circle of either polarity about the bore) had its pose fitted
   // from a start its circle gave (frontal for a round one) on the edges gathered about it: where
   // that pose's rim keeps under kObliqueRimSupport, the rim is searched about the bore, as
   // measureObliqueRim() does before the spool is judged (oblique seed 19 #13 at 640x480: a round
   // circle, its pose 21 deg off the axis; the search's 1.7 deg).
-  if (!searched && (own >= kObliqueRimSupport ||
+  if (!searched && ((own >= kObliqueRimSupport && !bore_oblique) ||
                     !searchRimAbout(image, format, geometry, result.hole, kBoreRimFallbackPoses, std::nullopt, true) ||
                     !boreAgreesWith(result.hole, oblique_rim_)))
     return false;
@@ -723,7 +740,11 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
   if (!(rim_pose_search_.measure(image, format, geometry, bore, position, axis, search, probe_rim_) ||
         rim_pose_search_.measure(image, format, geometry, geometry.project(position), position, axis, search,
                                  probe_rim_)) ||
-      !(probe_rim_.support >= own + kMeasuredRimMargin) ||
+      !(bore_oblique ? probe_rim_.support >= own - kBoreViewMargin &&
+                           std::abs(view_angle(probe_rim_.axis) - bore_angle) < std::abs(pose_angle - bore_angle)
+                     : probe_rim_.support >= own + kMeasuredRimMargin) ||
+      (!has_axis && !(std::abs(probe_rim_.position.z / geometry.depthFromDiameter(2.0 * result.flange.r_vertical) -
+                               1.0) <= kBoreViewDepthAgreement)) ||
       !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis,
                                     geometry.depthFromDiameter(2.0 * result.flange.r_vertical)))
     return false;
@@ -731,6 +752,40 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
   result.axis = probe_rim_.axis;
   geometry.moveBoreCentre(result);
   return true;
+}
+
+double SpoolDetector::boreViewBeyond(const Circle& hole, double pose_angle)
+{
+  constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  const double height = hole.r_vertical > 0.0 ? hole.r_vertical : hole.r;
+  if (height < kMinKnownSizeRadius)
+    return kNone;
+  const double shift = std::max(1.0, kBoreViewShift * height);
+  extractBoreEdges(hole, height + shift + std::max(0.75, 0.04 * height) + 2.0);
+  HoughSearch search;
+  search.polarity = params_.hough.hole_polarity;
+  auto density = [&](double angle)
+  {
+    return hole_hough_.shapeDensity(hole_edges_, search, {hole.x, hole.y}, {std::cos(angle) * height, height, 0.0},
+                                    shift);
+  };
+  const double at_pose = density(pose_angle);
+  double best = -1.0;
+  double best_angle = 0.0;
+  const int steps = static_cast<int>(std::floor((kBoreViewMax - pose_angle - kBoreViewGap) / kBoreViewStep + 1e-9));
+  for (int k = 0; k <= steps; ++k)
+  {
+    const double angle = pose_angle + kBoreViewGap + k * kBoreViewStep;
+    const double d = density(angle);
+    if (best < 0.0 && d < kBoreViewEarly * at_pose)
+      return kNone;
+    if (d > best)
+    {
+      best = d;
+      best_angle = angle;
+    }
+  }
+  return best > 0.0 && best >= kBoreViewRatio * at_pose ? best_angle : kNone;
 }
 
 bool SpoolDetector::searchEitherPolarity(const cv::Point2d& reference, const HoughSearch& flange_search,

@@ -570,6 +570,33 @@ TEST(HoughAccumulator, FitCentreAtSizeCentresATiltedHalfRimOnItsOwnShape)
   EXPECT_GT(std::hypot(upright.x - x, upright.y - y), 0.6);
 }
 
+TEST(HoughAccumulator, ShapeDensityPeaksAtTheBoresOwnAspect)
+{
+  // A dark bore seen 35 deg off its axis: an upright ellipse cos(35 deg) = 0.82 as wide as high,
+  // started 1.5 px off its centre. Of the ellipses of its height, the one of its own width has the
+  // most soft support per px of perimeter: more than the round one by over 10%, and more than
+  // ones 8 deg either side of its angle.
+  const double x = 300.4;
+  const double y = 250.7;
+  const double semi_y = 22.0;
+  const double angle = 35.0 * M_PI / 180.0;
+  cv::Mat img(480, 640, CV_8UC1, cv::Scalar(150));
+  spool_vision::test::fillEllipse(img, x, y, std::cos(angle) * semi_y, semi_y, 30);
+  const std::vector<EdgePoint> edges = blurredEdgesOf(img, 0.02);
+  HoughSearch search;
+  search.polarity = Polarity::kDark;
+  HoughAccumulator hough;
+  auto density = [&](double a) {
+    return hough.shapeDensity(edges, search, {x + 1.0, y - 1.0}, {std::cos(a) * semi_y, semi_y, 0.0}, 2.2);
+  };
+  const double own = density(angle);
+  EXPECT_GT(own, 1.1 * density(0.0));
+  EXPECT_GT(own, density(angle - 8.0 * M_PI / 180.0));
+  EXPECT_GT(own, density(angle + 8.0 * M_PI / 180.0));
+  // No edge near the shape: nothing borne out.
+  EXPECT_EQ(hough.shapeDensity(edges, search, {x + 200.0, y}, {semi_y, semi_y, 0.0}, 2.2), 0.0);
+}
+
 TEST(EdgeDetector, ARegionFindsTheWholeFramesEdgesInsideIt)
 {
   SceneStyle style;

@@ -748,6 +748,18 @@ TEST(FailureKinds, AnObliqueCircleNoRimSearchGaveIsReportedAtTheRimSearchedAbout
     expectObliquePose(seed, index, 100, 640, 0.015, 2.0 * kDeg);
 }
 
+// A pose well supported by its rim (0.6-0.85 of its samples) can still be 10-25 deg short of the
+// axis where the rim is mostly the part a frontal circle shares with the ellipse (the top and the
+// bottom): it was reported 3.4-5.5 deg off (oblique seed 19 #56 and 47 #88 of 100 at 640x480, 97
+// #10 of 100 at 320x240, 19 #8 of 60 at 1280x720). The bore's own rim bears out a more oblique
+// ellipse: the rim searched about it then gives the pose reported.
+TEST(FailureKinds, APoseShortOfTheAxisTheBoreBearsOutIsSearchedAgain)
+{
+  for (const auto& [seed, index, count, width] : {std::tuple{19, 56, 100, 640}, std::tuple{47, 88, 100, 640},
+                                                  std::tuple{97, 10, 100, 320}, std::tuple{19, 8, 60, 1280}})
+    expectObliquePose(seed, index, count, width, 0.015, 2.0 * kDeg);
+}
+
 // Seen 30-40 deg off its axis, a spool's front and back flanges make one outline, and a circle
 // fitted to it is 15-25% larger than the front rim and off the bore towards the back flange; the
 // matcher's oblique tolerances take it with the bore inside, and its depth is 8-12% short (oblique
