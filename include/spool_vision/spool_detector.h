@@ -603,7 +603,8 @@ private:
   /// its pose taken where its rim keeps within kBoreViewMargin of the own pose's support and its
   /// angle off the axis is nearer the bore's (without an axis, its depth also within
   /// kBoreViewDepthAgreement of Eq. 3.2's on the flange). A searched pose whose rim keeps no fit
-  /// about the hole is measured about the bore centre it projects to. `result` in undistorted px.
+  /// about the hole is measured about the bore centre it projects to. Where the flange was not the
+  /// searched rim, it is then reported as that pose's rim (rimSeenAt()). `result` in undistorted px.
   /// Uses own_rim_, oblique_rim_, probe_rim_ and hole_edges_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result);
