@@ -623,8 +623,8 @@ private:
   static constexpr double kBoreViewGap = 10.0 * M_PI / 180.0;
   static constexpr double kBoreViewStep = 4.0 * M_PI / 180.0;
   static constexpr double kBoreViewMax = 45.0 * M_PI / 180.0;
-  /// ... how much better its ellipse must be borne out than the pose's (on the 19 rendered sets of
-  /// sessions 38-48, 1.2 kept a third of the gains of 1.1; 1.05 with a 6 deg lead took two poses
+  /// ... how much better its ellipse must be borne out than the pose's (on 19 rendered sets, 1.2
+  /// with a 12 deg lead improved half as many poses as 1.1 with 10; 1.05 with 6 took two poses
   /// 30-67 deg off), and the first step's least share of the pose's density.
   static constexpr double kBoreViewRatio = 1.1;
   static constexpr double kBoreViewEarly = 0.9;
