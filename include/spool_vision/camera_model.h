@@ -16,6 +16,11 @@ namespace spool_vision
 /// on every call. Returns `p` unchanged when the camera has no distortion.
 cv::Point2d distortPixel(const CameraIntrinsics& camera, const cv::Point2d& p);
 
+/// distortPixel()'s inverse: where a raw frame's pixel `p` lies in the undistorted image with the
+/// same K (px), by cv::undistortPoints (20 iterations, as undistortionTable()). Returns `p`
+/// unchanged when the camera has no distortion.
+cv::Point2d undistortPixel(const CameraIntrinsics& camera, const cv::Point2d& p);
+
 /// px between the nodes at which undistortionTable() solves the lens model exactly.
 constexpr int kUndistortionGridStep = 8;
 

@@ -243,6 +243,11 @@ private:
   void refitWeakMatch(const HoughSearch& hole_search, const HoughSearch& flange_search, SpoolMatch& match);
   /// Moves the result's pixel centres from the undistorted image to the frame (distortPixel).
   static void toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result);
+  /// toFramePixels()'s inverse (undistortPixel).
+  static void toUndistortedPixels(const CameraIntrinsics& camera, SpoolDetection& result);
+  /// Moves the result's pixel centres (reference, flange, hole, lens, lens centroid) by `move`.
+  template <typename Move>
+  static void movePixelCentres(SpoolDetection& result, Move move);
   /// Whether the second search's `second` (kRetryBudgetScale) is taken where the first found no
   /// spool: both its rims solid (ConcentricMatcher::kSolidRimScore), or its bore's whole rim sharp
   /// (kSecondSearchBoreScore, kSecondSearchBoreRadius and up) and its flange kSecondSearchRimScore,
@@ -605,9 +610,11 @@ private:
   /// kBoreViewDepthAgreement of Eq. 3.2's on the flange). A searched pose whose rim keeps no fit
   /// about the hole is measured about the bore centre it projects to. Where the flange was not the
   /// searched rim, it is then reported as that pose's rim (rimSeenAt()). `result` in undistorted px.
-  /// Uses own_rim_, oblique_rim_, probe_rim_ and hole_edges_.
+  /// `outermost_rim`: the flange is the outermost rim about its bore (found outside an inner
+  /// ring), so its height is the rim's: a searched pose is taken only where it gives its rim that
+  /// height within kOutermostRimHeight. Uses own_rim_, oblique_rim_, probe_rim_ and hole_edges_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                SpoolDetection& result);
+                                SpoolDetection& result, bool outermost_rim = false);
   /// The angle (rad) between the spool's axis and the line of sight that `hole`'s rim (undistorted
   /// px) bears out, where it is at least kBoreViewGap beyond `pose_angle` (rad) and clearly so. The
   /// bore's front rim is a circle on the flange's face: seen at an angle off the axis, a level
@@ -639,6 +646,11 @@ private:
   /// The depth agreement with Eq. 3.2 asked of a searched pose replacing one without an axis (a cut
   /// rim's vertical semi-axis gives the depth within 6%: SpoolGeometry::plausiblePose()).
   static constexpr double kBoreViewDepthAgreement = 0.06;
+  /// searchedPoseSupportsMore()'s agreement with an outermost rim's height (a round circle about
+  /// an oblique rim is as high as the rim, within 1-7% on the oblique sets; the rim of a rib ring
+  /// 0.86 of the flange's size, searched about the same bore, 11% lower: oblique seed 7 #27 at
+  /// 640x480).
+  static constexpr double kOutermostRimHeight = 0.08;
   /// The rim RimPoseSearch found (oblique_rim_) as `result`'s flange, with `hole` as its bore; its
   /// edges as the rim (takeObliqueRim()) and the pose measured again.
   void takeSpoolAboutBore(const SpoolGeometry& geometry, const Circle& hole, SpoolDetection& result);

@@ -37,6 +37,18 @@ std::array<float, 4> cubicWeights(float t)
 }
 }  // namespace
 
+cv::Point2d undistortPixel(const CameraIntrinsics& camera, const cv::Point2d& p)
+{
+  if (!camera.distorted())
+    return p;
+  const cv::Matx33d k(camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0);
+  std::vector<cv::Point2d> raw{p};
+  std::vector<cv::Point2d> ideal;
+  cv::undistortPoints(raw, ideal, k, camera.distortion, cv::noArray(), k,
+                      cv::TermCriteria(cv::TermCriteria::COUNT, 20, 0.0));
+  return ideal.front();
+}
+
 void undistortionTable(const CameraIntrinsics& camera, cv::Mat& table)
 {
   if (!camera.valid())

@@ -423,6 +423,18 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       }
     }
   }
+  // The flange outside an inner ring came from the window's search, which checks no reported pose:
+  // its pose is checked now as a whole frame's is (a round circle about an oblique rim, 7-45 deg
+  // off the axis from the start a circle gives: oblique seed 7 #11, #84 and 47 #20 at 640x480),
+  // in undistorted px.
+  if (outer_taken)
+  {
+    const CameraIntrinsics& camera = geometry.camera();
+    toUndistortedPixels(camera, result);
+    if (searchedPoseSupportsMore(image, format, geometry, result, true) && offAxis(result.axis))
+      remeasureBore(geometry, result.axis, true, result);
+    toFramePixels(camera, result);
+  }
   // Seen far off its axis, a rib ring (its bore at its own size too large for it, its ellipse oval)
   // with no rim outside it that agrees with the bore is no flange either: its depth is the ring's,
   // 13-18% off on the oblique sets (seed 7 #10, 131 #83 at 640x480; 131 #68 at 320x240). A round
@@ -684,7 +696,7 @@ bool SpoolDetector::sameCircle(const Circle& a, const Circle& b)
 }
 
 bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                             SpoolDetection& result)
+                                             SpoolDetection& result, bool outermost_rim)
 {
   if (!result.hole_detected)
     return false;
@@ -746,7 +758,9 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
       (!has_axis && !(std::abs(probe_rim_.position.z / geometry.depthFromDiameter(2.0 * result.flange.r_vertical) -
                                1.0) <= kBoreViewDepthAgreement)) ||
       !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis,
-                                    geometry.depthFromDiameter(2.0 * result.flange.r_vertical)))
+                                    geometry.depthFromDiameter(2.0 * result.flange.r_vertical)) ||
+      (outermost_rim && !searched &&
+       !(std::abs(rimSeenAt(probe_rim_).r_vertical / result.flange.r_vertical - 1.0) <= kOutermostRimHeight)))
     return false;
   result.position = probe_rim_.position;
   result.axis = probe_rim_.axis;
@@ -899,25 +913,36 @@ void SpoolDetector::gatherRim(const SpoolDetection& result, Polarity polarity)
   }
 }
 
-void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result)
+template <typename Move>
+void SpoolDetector::movePixelCentres(SpoolDetection& result, Move move)
 {
-  if (!camera.distorted())
-    return;
-  auto move = [&camera](double& x, double& y)
+  auto moved = [&move](double& x, double& y)
   {
-    const cv::Point2d p = distortPixel(camera, {x, y});
+    const cv::Point2d p = move(cv::Point2d(x, y));
     x = p.x;
     y = p.y;
   };
-  move(result.reference.x, result.reference.y);
+  moved(result.reference.x, result.reference.y);
   if (result.detected)
-    move(result.flange.x, result.flange.y);
+    moved(result.flange.x, result.flange.y);
   if (result.hole_detected)
-    move(result.hole.x, result.hole.y);
+    moved(result.hole.x, result.hole.y);
   if (result.lens_detected)
-    move(result.lens.x, result.lens.y);
+    moved(result.lens.x, result.lens.y);
   if (result.parallax_measured)
-    move(result.lens_centroid.x, result.lens_centroid.y);
+    moved(result.lens_centroid.x, result.lens_centroid.y);
+}
+
+void SpoolDetector::toFramePixels(const CameraIntrinsics& camera, SpoolDetection& result)
+{
+  if (camera.distorted())
+    movePixelCentres(result, [&camera](const cv::Point2d& p) { return distortPixel(camera, p); });
+}
+
+void SpoolDetector::toUndistortedPixels(const CameraIntrinsics& camera, SpoolDetection& result)
+{
+  if (camera.distorted())
+    movePixelCentres(result, [&camera](const cv::Point2d& p) { return undistortPixel(camera, p); });
 }
 
 bool SpoolDetector::takesSecondSearch(const SpoolDetection& second) const
