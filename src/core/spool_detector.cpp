@@ -751,16 +751,19 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
   // reported then came out 1-2 deg worse (FailureKinds.AnObliqueSpoolIsReportedAtThePoseItsRimWasFoundAt).
   if (!(rim_pose_search_.measure(image, format, geometry, bore, position, axis, search, probe_rim_) ||
         rim_pose_search_.measure(image, format, geometry, geometry.project(position), position, axis, search,
-                                 probe_rim_)) ||
-      !(bore_oblique ? probe_rim_.support >= own - kBoreViewMargin &&
-                           std::abs(view_angle(probe_rim_.axis) - bore_angle) < std::abs(pose_angle - bore_angle)
-                     : probe_rim_.support >= own + kMeasuredRimMargin) ||
-      (!has_axis && !(std::abs(probe_rim_.position.z / geometry.depthFromDiameter(2.0 * result.flange.r_vertical) -
-                               1.0) <= kBoreViewDepthAgreement)) ||
-      !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis,
-                                    geometry.depthFromDiameter(2.0 * result.flange.r_vertical)) ||
-      (outermost_rim && !searched &&
-       !(std::abs(rimSeenAt(probe_rim_).r_vertical / result.flange.r_vertical - 1.0) <= kOutermostRimHeight)))
+                                 probe_rim_)))
+    return false;
+  const double eq32_depth = geometry.depthFromDiameter(2.0 * result.flange.r_vertical);
+  const Circle seen = rimSeenAt(probe_rim_);
+  const bool supported =
+      bore_oblique ? probe_rim_.support >= own - kBoreViewMargin &&
+                         std::abs(view_angle(probe_rim_.axis) - bore_angle) < std::abs(pose_angle - bore_angle)
+                   : probe_rim_.support >= own + kMeasuredRimMargin;
+  const bool depth_agrees = has_axis || std::abs(probe_rim_.position.z / eq32_depth - 1.0) <= kBoreViewDepthAgreement;
+  const bool height_agrees =
+      !outermost_rim || searched || std::abs(seen.r_vertical / result.flange.r_vertical - 1.0) <= kOutermostRimHeight;
+  if (!supported || !depth_agrees || !height_agrees ||
+      !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis, eq32_depth))
     return false;
   result.position = probe_rim_.position;
   result.axis = probe_rim_.axis;
@@ -769,7 +772,6 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
   // Its score stays the evidence the spool was taken on.
   if (!searched)
   {
-    const Circle seen = rimSeenAt(probe_rim_);
     result.flange.x = seen.x;
     result.flange.y = seen.y;
     result.flange.r = seen.r;
