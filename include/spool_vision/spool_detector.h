@@ -612,9 +612,20 @@ private:
   /// searched rim, it is then reported as that pose's rim (rimSeenAt()). `result` in undistorted px.
   /// `outermost_rim`: the flange is the outermost rim about its bore (found outside an inner
   /// ring), so its height is the rim's: a searched pose is taken only where it gives its rim that
-  /// height within kOutermostRimHeight. Uses own_rim_, oblique_rim_, probe_rim_ and hole_edges_.
+  /// height within kOutermostRimHeight, a lower rim's pose first scaled out to it
+  /// (scaleToOutermostRim()). Uses own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result, bool outermost_rim = false);
+  /// Where the rim of the pose searched about `bore` (probe_rim_, undistorted px) is lower than
+  /// `outermost` (the outermost rim about that bore, undistorted px) by more than
+  /// kOutermostRimHeight, it is a concentric ring of the same face (a rib ring, 0.83-0.91 of the
+  /// rim's height on the oblique sets) seen at the right axis (the bore's shape bears it out): the
+  /// pose's position is scaled by the ratio of the two heights (the scene scaled about the
+  /// camera keeps the ring's image, which the outer rim's is scaled by that ratio) and the rim
+  /// measured there (RimPoseSearch::measure with `search`); where it fits, that fit replaces
+  /// probe_rim_. Uses scaled_rim_.
+  void scaleToOutermostRim(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
+                           const cv::Point2d& bore, const RimSearch& search, const Circle& outermost);
   /// The angle (rad) between the spool's axis and the line of sight that `hole`'s rim (undistorted
   /// px) bears out, where it is at least kBoreViewGap beyond `pose_angle` (rad) and clearly so. The
   /// bore's front rim is a circle on the flange's face: seen at an angle off the axis, a level
@@ -880,6 +891,7 @@ private:
   std::vector<Circle> turned_flanges_;      ///< nearerTurnedFlange(): the stretched frame's circles
   RimPoseFit turned_rim_;                   ///< nearerTurnedFlange(): a candidate's rim
   RimPoseFit probe_rim_;                    ///< turnedPoseSupportsMore(): a turned pose's rim
+  RimPoseFit scaled_rim_;                   ///< scaleToOutermostRim(): the searched pose scaled out
   /// The whole frame's search took its spool about a bore that, measured at the size the rim gives
   /// it, agrees with the rim (spoolAboutHoles(), boreAgreesAtOwnSize()), or the second search's
   /// spool's bore does so: takesSecondSearch() reads it.

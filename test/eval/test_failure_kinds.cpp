@@ -780,6 +780,40 @@ TEST(FailureKinds, AFlangeOutsideAnInnerRingHasItsPoseChecked)
     expectObliquePose(7, index, 100, 640, 0.02, 4.0 * kDeg);
 }
 
+// Seen 30-40 deg off its axis, the rim searched about the bore of a flange found outside an inner
+// ring was the inner ring's own (0.83-0.91 of the flange's height), its axis right: refused for its
+// height, the flange kept the pose its round circle gave, 8-45 deg off the axis (oblique seed 7 #27,
+// 37 #34, 47 #98, 89 #39 and 97 #80 of 100 at 640x480; 97 #80 13% deep, its flange cut by the
+// frame). That pose scaled out to the flange's height, the rim measured there, is reported: the axis
+// within 2 deg, the depth within 1%.
+TEST(FailureKinds, AnInnerRingsPoseScaledOutToTheFlangeOutsideItIsReported)
+{
+  for (const auto& [seed, index] :
+       {std::pair{7, 27}, std::pair{37, 34}, std::pair{47, 98}, std::pair{89, 39}, std::pair{97, 80}})
+    expectObliquePose(seed, index, 100, 640, 0.01, 2.0 * kDeg);
+}
+
+// Seen 30-36 deg off its axis, a flange outside a rib ring was found, but refused: the bore
+// measured at its own size (an ellipse about the ring's pose) lay 2.8-10.7 px from the hole the
+// rim's window fitted (a circle), or the rim's window put it 0.05 px under its lower bound. The
+// rib ring was reported, 13-17% deep (packed_oblique seed 43 #24 of 100 at 640x480, oblique seed 97
+// #80 of 100 at 320x240). The flange is taken: its depth within 1%.
+TEST(FailureKinds, AFlangeOutsideAnObliqueRibRingIsTakenAboutTheHoleItWasFoundWith)
+{
+  for (const auto& [set, seed, index, width] :
+       {std::tuple{FrameSet::kPackedOblique, 43, 24, 640}, std::tuple{FrameSet::kOblique, 97, 80, 320}})
+  {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index) + " at " + std::to_string(width));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(set, seed, index, 100, width, detector);
+    const auto target = spool_vision::targetSpool(frame.truth);
+    ASSERT_TRUE(target && target->in_slot);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected && d.hole_detected);
+    EXPECT_NEAR(d.distance, target->distance, 0.01 * target->distance);
+  }
+}
+
 // Seen 30-40 deg off its axis, a spool's front and back flanges make one outline, and a circle
 // fitted to it is 15-25% larger than the front rim and off the bore towards the back flange; the
 // matcher's oblique tolerances take it with the bore inside, and its depth is 8-12% short (oblique
