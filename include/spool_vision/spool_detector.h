@@ -613,9 +613,12 @@ private:
   /// `outermost_rim`: the flange is the outermost rim about its bore (found outside an inner
   /// ring), so its height is the rim's: a searched pose is taken only where it gives its rim that
   /// height within kOutermostRimHeight, a lower rim's pose first scaled out to it
-  /// (scaleToOutermostRim()). Uses own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_.
+  /// (scaleToOutermostRim()). `ring_pose`, where given with `outermost_rim`: the pose searched about
+  /// the bore and taken for the inner ring inside the flange, tried in place of a new search. Uses
+  /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                SpoolDetection& result, bool outermost_rim = false);
+                                SpoolDetection& result, bool outermost_rim = false,
+                                const RimPoseFit* ring_pose = nullptr);
   /// Where the rim of the pose searched about `bore` (probe_rim_, undistorted px) is lower than
   /// `outermost` (the outermost rim about that bore, undistorted px) by more than
   /// kOutermostRimHeight, it is a concentric ring of the same face (a rib ring, 0.83-0.91 of the
