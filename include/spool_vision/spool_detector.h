@@ -379,6 +379,12 @@ private:
   /// it would leave that rim bare): frontRimAboutOwnBore() does not measure it (the joint
   /// silhouettes' bores scored 0.30-0.95 there; two in three of the hard set's right ones 0.97-1).
   static constexpr double kSilhouetteBoreWhole = 0.97;
+  /// `hole` measured at its own size about `fit`'s rim (boreAtOwnSize(), the axis `fit`'s where it
+  /// is offAxis()), undistorted px.
+  std::optional<Circle> boreAtOwnSize(const Circle& hole, const RimPoseFit& fit);
+  /// Whether `bore` (measured at its own size) is within kOwnScaleAgreement of the size `flange`
+  /// gives it (ConcentricMatcher::holeRadius()).
+  bool ownSizeAgrees(const Circle& bore, const Circle& flange) const;
   /// Whether `hole`, measured at its own size (boreAtOwnSize(), the axis `fit`'s where it is
   /// offAxis()), is within kOwnScaleAgreement of the size `fit`'s rim gives it.
   bool boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit);
@@ -511,6 +517,12 @@ private:
   /// flange outside it, and true. Hard seed 7 #10 at 160x120: a face at 0.51 m overfilling the
   /// frame, its bore's lens lit, the ring at 0.65 of the rim with a bore 1.5 times what it allows.
   bool ringAboutLargeBore(const cv::Point2d& reference, const HoughSearch& hole_search, SpoolDetection& result);
+  /// Where no spool was found, the rib ring spoolAboutHoles() found about a bore (bore_ring_: a
+  /// rim searched about it on which the bore at its own size is kObliqueInnerRingScale or more of
+  /// what the rim allows) taken into `result` with that hole (undistorted px), for detect()'s
+  /// outer-rim search, which must find the flange outside it, from the ring's pose; true. False
+  /// where there is none.
+  bool takeBoreRing(SpoolDetection& result) const;
   /// The flange rim of `fit`'s pose as the image shows it (undistorted px): the 3-D circle of
   /// flange_diameter about fit.position, normal to fit.axis, projected at kRimExtentPoints points;
   /// centre and semi-axes are those of its extent, r their mean, score and visible fraction
@@ -862,6 +874,16 @@ private:
     cv::Vec3d axis;        ///< unit
   };
   std::optional<SearchedPose> searched_pose_;
+  /// spoolAboutHoles(), with no spool taken: the first rim searched about a bore that the bore at
+  /// its own size calls a rib ring (its pose, without edges), that hole and that bore
+  /// (undistorted px). takeBoreRing().
+  struct BoreRing
+  {
+    RimPoseFit pose;
+    Circle hole;
+    Circle bore;
+  };
+  std::optional<BoreRing> bore_ring_;
   ConcentricMatcher matcher_;
   std::optional<CameraIntrinsics> camera_;
   std::optional<SpoolGeometry> geometry_;

@@ -178,6 +178,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
     weak_match_rim_taken_ = false;
     small_bore_spool_taken_ = false;
     searched_pose_.reset();
+    bore_ring_.reset();
   }
   bool along_rim = window && window->rim.radius > 0.0;
   bool budget_bound = false;
@@ -260,8 +261,13 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
                          obliqueSpool(image, format, reference, nearer_flanges_, hole_search, cost, false, result)));
   // No spool, but a circle about a sharp bore too large for it: a rib ring, whose flange is searched
   // outside it below (and without which it is no spool). In either search: this leads outwards.
-  const bool bare_ring =
+  const bool ring_about_bore =
       !result.detected && !along_rim && whole_frame && ringAboutLargeBore(reference, hole_search, result);
+  // Nor any rib ring a Hough circle gave, but a rim searched about a bore that the bore at its own
+  // size calls one: it too leads outwards.
+  const bool ring_searched_about_bore =
+      !result.detected && !along_rim && whole_frame && !ring_about_bore && takeBoreRing(result);
+  const bool bare_ring = ring_about_bore || ring_searched_about_bore;
   if (along_rim)
   {
     // The moving edges on the rim are its edges, while the flange is theirs.
@@ -298,6 +304,11 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // off its axis, with the lit wall on the side the axis gives).
   Circle bore;
   bool inner_ring = whole_frame && result.hole_detected && ownBore(result, hole_search, bore);
+  if (ring_searched_about_bore)
+  {
+    inner_ring = true;
+    bore = bore_ring_->bore;
+  }
   // Seen far off its axis, the bore is measured with the lit wall on the side the axis gives: the
   // whole frame's pose's, or the one an inner ring of the same spool gave the window.
   const bool axis_given = window && std::isfinite(window->spool_axis[2]);
@@ -342,6 +353,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // ring's pose right in axis, 20% deep; the bore 1.2 times what the ring allows, 1.06 at most on
   // the 200 other searched poses of 19 rendered sets). That pose is carried out to the flange's.
   std::optional<RimPoseFit> ring_pose;
+  if (ring_searched_about_bore)
+    ring_pose = bore_ring_->pose;
   if (searched_pose_taken && offAxis(result.axis) && obliqueInnerRing(result, bore))
   {
     inner_ring = true;
@@ -1527,9 +1540,26 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
     // height (oblique seed 89 #55 at 640x480: 15.5 px of 22, the rim about it right).
     const bool needs_own_size = oblique_rim_.support < kObliqueSpoolSupport || !boreAgreesWith(hole, oblique_rim_);
     // (takesSecondSearch() reads the agreement too.)
-    const bool own_size_agrees = (needs_own_size || search_.second) && boreAgreesAtOwnSize(hole, oblique_rim_);
+    const std::optional<Circle> own =
+        needs_own_size || search_.second ? boreAtOwnSize(hole, oblique_rim_) : std::optional<Circle>();
+    const bool own_size_agrees = own && ownSizeAgrees(*own, oblique_rim_.rim);
     if (needs_own_size && !own_size_agrees)
+    {
+      // A bore kObliqueInnerRingScale or more of what the rim allows says the rim is a rib ring
+      // about it (1.1-1.34 on the 19 rendered sets of session 50, their depths 9-47% long; right
+      // rims 1.08 at most): with no spool taken, the first leads outwards (takeBoreRing()).
+      if (!std::isfinite(bound) && !bore_ring_ && own &&
+          own->r_vertical >= kObliqueInnerRingScale * matcher_.holeRadius(oblique_rim_.rim))
+      {
+        bore_ring_.emplace();
+        bore_ring_->pose.position = oblique_rim_.position;
+        bore_ring_->pose.axis = oblique_rim_.axis;
+        bore_ring_->pose.rim = oblique_rim_.rim;
+        bore_ring_->hole = hole;
+        bore_ring_->bore = *own;
+      }
       continue;
+    }
     bore_agrees_at_own_size_ = own_size_agrees;
     takeSpool(oblique_rim_.rim, hole, result);
     keepSearchedPose();
@@ -1822,18 +1852,37 @@ bool SpoolDetector::obliqueInnerRing(const SpoolDetection& result, Circle& bore)
   return bore.r_vertical >= kObliqueInnerRingScale * matcher_.holeRadius(result.flange);
 }
 
-bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit)
+std::optional<Circle> SpoolDetector::boreAtOwnSize(const Circle& hole, const RimPoseFit& fit)
 {
   SpoolDetection spool;
   spool.flange = fit.rim;
   spool.hole = hole;
-  return boreAgreesAtOwnSize(spool, fit.axis);
+  return boreAtOwnSize(spool, offAxis(fit.axis) ? std::optional<cv::Vec3d>(fit.axis) : std::nullopt);
+}
+
+bool SpoolDetector::ownSizeAgrees(const Circle& bore, const Circle& flange) const
+{
+  return std::abs(bore.r_vertical / matcher_.holeRadius(flange) - 1.0) <= kOwnScaleAgreement;
+}
+
+bool SpoolDetector::takeBoreRing(SpoolDetection& result) const
+{
+  if (!bore_ring_)
+    return false;
+  takeSpool(bore_ring_->pose.rim, bore_ring_->hole, result);
+  return true;
+}
+
+bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit)
+{
+  const std::optional<Circle> own = boreAtOwnSize(hole, fit);
+  return own && ownSizeAgrees(*own, fit.rim);
 }
 
 bool SpoolDetector::boreAgreesAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis)
 {
   const std::optional<Circle> own = boreAtOwnSize(spool, offAxis(axis) ? std::optional<cv::Vec3d>(axis) : std::nullopt);
-  return own && std::abs(own->r_vertical / matcher_.holeRadius(spool.flange) - 1.0) <= kOwnScaleAgreement;
+  return own && ownSizeAgrees(*own, spool.flange);
 }
 
 bool SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
