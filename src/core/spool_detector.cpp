@@ -402,15 +402,18 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       const double largest = (1.0 + kOuterRimMargin) * outer;
       if (smallest >= largest)
         break;
-      // About the bore measured at its own size, or about the hole the inner ring was found with:
-      // seen 30-40 deg off the axis, the first is an ellipse about the pose's axis and the rim's
-      // window fits a circle, their centres up to half the bore's radius apart (10.7 px on packed
-      // oblique seed 43 #24 at 640x480, 2.8 px on oblique 97 #80 at 320x240).
+      // About the bore measured at its own size, or, for a rim the frame's search would take, about
+      // the hole the inner ring was found with: seen 30-40 deg off the axis, the first is an ellipse
+      // about the pose's axis and the rim's window fits a circle, their centres up to half the
+      // bore's radius apart (10.7 px on packed oblique seed 43 #24 at 640x480, 2.8 px on oblique 97
+      // #80 at 320x240). That hole may be mismeasured, and a weaker circle about it a back flange's
+      // outline (0.36 on oblique seed 185 #48 of 300 at 640x480, 15% short).
       auto concentric = [&](const SpoolDetection& rim)
       {
         return rim.hole_detected &&
                (std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement ||
-                std::hypot(rim.hole.x - hole_seen.x, rim.hole.y - hole_seen.y) <= centre_agreement);
+                (rim.flange.score >= flange_search.min_score &&
+                 std::hypot(rim.hole.x - hole_seen.x, rim.hole.y - hole_seen.y) <= centre_agreement));
       };
       // Near the axis, a rim whole in the frame needs the support the frame's search asks: the
       // window's lower bar stands for a rim the border cuts, and a faint circle just outside a

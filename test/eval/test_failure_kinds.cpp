@@ -814,6 +814,17 @@ TEST(FailureKinds, AFlangeOutsideAnObliqueRibRingIsTakenAboutTheHoleItWasFoundWi
   }
 }
 
+// The same agreement about the hole an inner ring was found with asks a rim the frame's search
+// would take: seen 36 deg off its axis, a right flange whose weak hole (0.28) measured 23% large
+// was taken for an inner ring, and a circle of 0.36 about that hole, a back flange's outline, was
+// reported outside it 15% short (oblique seed 185 #48 of 300 at 640x480). The flange stays: its
+// depth within 2%.
+TEST(FailureKinds, AWeakCircleAboutAnInnerRingsHoleIsNotTakenForItsFlange)
+{
+  SpoolDetector detector;
+  expectSlotTargetDetected(detector, renderSetFrame(FrameSet::kOblique, 185, 48, 300, 640, detector), 0.02);
+}
+
 // Seen 32 deg off its axis, a rib ring 0.83 of the flange's size was found as a round circle about
 // the bore, whose circle fit agreed with it (21.5 px for a bore 23.9 px high); the pose searched
 // about the bore was the ring's, right in axis, and reported 20% deep (packed_oblique seed 43 #37
