@@ -195,6 +195,16 @@ public:
   static constexpr double kOwnScaleAgreement = 0.06;
 
 private:
+  /// A rim's pose as RimPoseSearch found it with the rim (undistorted px) it gave a spool taken
+  /// about a bore (searched_pose_: the reported pose's rim fit starts from it too while that rim is
+  /// the flange), or an inner ring's pose carried out to the flange outside it (BoreRing,
+  /// searchedPoseSupportsMore()'s ring_pose).
+  struct SearchedPose
+  {
+    Circle flange;
+    cv::Point3d position;  ///< m, camera optical frame
+    cv::Vec3d axis;        ///< unit
+  };
   const SpoolGeometry& geometryFor(cv::Size size);
   /// preprocessed_ and the edge detector's gradients for the circles whose centres lie in
   /// `centres` and reach `reach` px beyond (undistorted px): only their pixels; with
@@ -350,9 +360,10 @@ private:
   /// inner ring: its rib).
   bool obliqueInnerRing(const SpoolDetection& result, Circle& bore);
   /// `spool`'s bore measured at its own size: the ellipse's shape as measureBoreAtKnownSize() sets
-  /// it with `axis`, its scale free in kOwnScaleMin..kOwnScaleMax of the size the flange gives it
+  /// it with `axis` where that is offAxis() (camera optical frame; a round shape otherwise), its
+  /// scale free in kOwnScaleMin..kOwnScaleMax of the size the flange gives it
   /// (HoughAccumulator::fitCentreAndScale()); none where its rim scores under hole_sensitivity.
-  std::optional<Circle> boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis);
+  std::optional<Circle> boreAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis);
   /// Where `result`'s bore, under kSilhouetteBoreWhole at the size its flange gives it and measured
   /// at its own size (boreAtOwnSize(), with the pose's axis where it is offAxis()), is
   /// kSilhouetteBoreScale or less of the size its flange gives it and is no lit lens inside the bore
@@ -379,17 +390,12 @@ private:
   /// it would leave that rim bare): frontRimAboutOwnBore() does not measure it (the joint
   /// silhouettes' bores scored 0.30-0.95 there; two in three of the hard set's right ones 0.97-1).
   static constexpr double kSilhouetteBoreWhole = 0.97;
-  /// `hole` measured at its own size about `fit`'s rim (boreAtOwnSize(), the axis `fit`'s where it
-  /// is offAxis()), undistorted px.
-  std::optional<Circle> boreAtOwnSize(const Circle& hole, const RimPoseFit& fit);
   /// Whether `bore` (measured at its own size) is within kOwnScaleAgreement of the size `flange`
   /// gives it (ConcentricMatcher::holeRadius()).
   bool ownSizeAgrees(const Circle& bore, const Circle& flange) const;
-  /// Whether `hole`, measured at its own size (boreAtOwnSize(), the axis `fit`'s where it is
-  /// offAxis()), is within kOwnScaleAgreement of the size `fit`'s rim gives it.
-  bool boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit);
-  /// The same for `spool`'s hole and flange (undistorted px), `axis` its axis (camera optical frame;
-  /// NaN: unknown).
+  /// Whether `spool`'s hole, measured at its own size (boreAtOwnSize() with `axis`, camera optical
+  /// frame; NaN: unknown), is within kOwnScaleAgreement of the size its flange gives it
+  /// (undistorted px).
   bool boreAgreesAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis);
   /// measureBoreAtKnownSize()'s ellipse, centre reach, lit-wall side and search for `result`'s
   /// bore; none where the bore is under kMinKnownSizeRadius. With `axis` and `projected`, the
@@ -630,7 +636,7 @@ private:
   /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result, bool outermost_rim = false,
-                                const RimPoseFit* ring_pose = nullptr);
+                                const SearchedPose* ring_pose = nullptr);
   /// Where the rim of the pose searched about `bore` (probe_rim_, undistorted px) is lower than
   /// `outermost` (the outermost rim about that bore, undistorted px) by more than
   /// kOutermostRimHeight, it is a concentric ring of the same face (a rib ring, 0.83-0.91 of the
@@ -865,21 +871,13 @@ private:
   RimPoseSearch rim_pose_search_;
   RimPoseFit own_rim_;      ///< the result's own pose's rim (measureObliqueRim)
   RimPoseFit oblique_rim_;  ///< the search's best rim (measureObliqueRim)
-  /// A rim's pose as RimPoseSearch found it with the rim (undistorted px) it gave a spool taken
-  /// about a bore: the reported pose's rim fit starts from it too while that rim is the flange.
-  struct SearchedPose
-  {
-    Circle flange;
-    cv::Point3d position;  ///< m, camera optical frame
-    cv::Vec3d axis;        ///< unit
-  };
   std::optional<SearchedPose> searched_pose_;
   /// spoolAboutHoles(), with no spool taken: the first rim searched about a bore that the bore at
-  /// its own size calls a rib ring (its pose, without edges), that hole and that bore
-  /// (undistorted px). takeBoreRing().
+  /// its own size calls a rib ring (its rim and pose), that hole and that bore (undistorted px).
+  /// takeBoreRing().
   struct BoreRing
   {
-    RimPoseFit pose;
+    SearchedPose ring;
     Circle hole;
     Circle bore;
   };

@@ -352,16 +352,14 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // 23.9 px high bore seen 32 deg off) agreed with it (packed_oblique seed 43 #37 at 640x480: the
   // ring's pose right in axis, 20% deep; the bore 1.2 times what the ring allows, 1.06 at most on
   // the 200 other searched poses of 19 rendered sets). That pose is carried out to the flange's.
-  std::optional<RimPoseFit> ring_pose;
+  std::optional<SearchedPose> ring_pose;
   if (ring_searched_about_bore)
-    ring_pose = bore_ring_->pose;
+    ring_pose = bore_ring_->ring;
   if (searched_pose_taken && offAxis(result.axis) && obliqueInnerRing(result, bore))
   {
     inner_ring = true;
     oblique_inner_ring = true;
-    ring_pose.emplace();
-    ring_pose->position = result.position;
-    ring_pose->axis = result.axis;
+    ring_pose = SearchedPose{result.flange, result.position, result.axis};
   }
   if (off_axis_bore ||
       ((searched_pose_taken || (reported && geometry.measureFromAspect(result, rim_))) && offAxis(result.axis)))
@@ -738,7 +736,7 @@ bool SpoolDetector::sameCircle(const Circle& a, const Circle& b)
 }
 
 bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                             SpoolDetection& result, bool outermost_rim, const RimPoseFit* ring_pose)
+                                             SpoolDetection& result, bool outermost_rim, const SearchedPose* ring_pose)
 {
   if (!result.hole_detected)
     return false;
@@ -1543,8 +1541,11 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
     // height (oblique seed 89 #55 at 640x480: 15.5 px of 22, the rim about it right).
     const bool needs_own_size = oblique_rim_.support < kObliqueSpoolSupport || !boreAgreesWith(hole, oblique_rim_);
     // (takesSecondSearch() reads the agreement too.)
+    SpoolDetection about_hole;
+    about_hole.flange = oblique_rim_.rim;
+    about_hole.hole = hole;
     const std::optional<Circle> own =
-        needs_own_size || search_.second ? boreAtOwnSize(hole, oblique_rim_) : std::optional<Circle>();
+        needs_own_size || search_.second ? boreAtOwnSize(about_hole, oblique_rim_.axis) : std::optional<Circle>();
     const bool own_size_agrees = own && ownSizeAgrees(*own, oblique_rim_.rim);
     if (needs_own_size && !own_size_agrees)
     {
@@ -1554,12 +1555,7 @@ bool SpoolDetector::spoolAboutHoles(const cv::Mat& image, PixelFormat format, co
       if (!std::isfinite(bound) && !bore_ring_ && own &&
           own->r_vertical >= kObliqueInnerRingScale * matcher_.holeRadius(oblique_rim_.rim))
       {
-        bore_ring_.emplace();
-        bore_ring_->pose.position = oblique_rim_.position;
-        bore_ring_->pose.axis = oblique_rim_.axis;
-        bore_ring_->pose.rim = oblique_rim_.rim;
-        bore_ring_->hole = hole;
-        bore_ring_->bore = *own;
+        bore_ring_ = BoreRing{{oblique_rim_.rim, oblique_rim_.position, oblique_rim_.axis}, hole, *own};
       }
       continue;
     }
@@ -1831,9 +1827,10 @@ bool SpoolDetector::measureBoreAboutFlangeCentre(SpoolDetection& result)
   return false;
 }
 
-std::optional<Circle> SpoolDetector::boreAtOwnSize(const SpoolDetection& spool, const std::optional<cv::Vec3d>& axis)
+std::optional<Circle> SpoolDetector::boreAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis)
 {
-  const std::optional<BoreShape> shape = boreShape(spool, std::nullopt, axis, false);
+  const std::optional<BoreShape> shape =
+      boreShape(spool, std::nullopt, offAxis(axis) ? std::optional<cv::Vec3d>(axis) : std::nullopt, false);
   if (!shape)
     return std::nullopt;
   const Circle& hole = spool.hole;
@@ -1855,14 +1852,6 @@ bool SpoolDetector::obliqueInnerRing(const SpoolDetection& result, Circle& bore)
   return bore.r_vertical >= kObliqueInnerRingScale * matcher_.holeRadius(result.flange);
 }
 
-std::optional<Circle> SpoolDetector::boreAtOwnSize(const Circle& hole, const RimPoseFit& fit)
-{
-  SpoolDetection spool;
-  spool.flange = fit.rim;
-  spool.hole = hole;
-  return boreAtOwnSize(spool, offAxis(fit.axis) ? std::optional<cv::Vec3d>(fit.axis) : std::nullopt);
-}
-
 bool SpoolDetector::ownSizeAgrees(const Circle& bore, const Circle& flange) const
 {
   return std::abs(bore.r_vertical / matcher_.holeRadius(flange) - 1.0) <= kOwnScaleAgreement;
@@ -1872,19 +1861,13 @@ bool SpoolDetector::takeBoreRing(SpoolDetection& result) const
 {
   if (!bore_ring_)
     return false;
-  takeSpool(bore_ring_->pose.rim, bore_ring_->hole, result);
+  takeSpool(bore_ring_->ring.flange, bore_ring_->hole, result);
   return true;
-}
-
-bool SpoolDetector::boreAgreesAtOwnSize(const Circle& hole, const RimPoseFit& fit)
-{
-  const std::optional<Circle> own = boreAtOwnSize(hole, fit);
-  return own && ownSizeAgrees(*own, fit.rim);
 }
 
 bool SpoolDetector::boreAgreesAtOwnSize(const SpoolDetection& spool, const cv::Vec3d& axis)
 {
-  const std::optional<Circle> own = boreAtOwnSize(spool, offAxis(axis) ? std::optional<cv::Vec3d>(axis) : std::nullopt);
+  const std::optional<Circle> own = boreAtOwnSize(spool, axis);
   return own && ownSizeAgrees(*own, spool.flange);
 }
 
@@ -1893,8 +1876,7 @@ bool SpoolDetector::frontRimAboutOwnBore(const cv::Mat& image, PixelFormat forma
 {
   if (result.hole.score >= kSilhouetteBoreWhole)
     return true;
-  const std::optional<Circle> own =
-      boreAtOwnSize(result, offAxis(result.axis) ? std::optional<cv::Vec3d>(result.axis) : std::nullopt);
+  const std::optional<Circle> own = boreAtOwnSize(result, result.axis);
   // A smaller circle inside the bore that is lighter than the rest of it is a lens, not the rim.
   if (!own || own->r_vertical > kSilhouetteBoreScale * matcher_.holeRadius(result.flange) ||
       litInside(*own, result.hole))
