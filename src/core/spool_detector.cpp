@@ -304,7 +304,8 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // off its axis, with the lit wall on the side the axis gives).
   Circle bore;
   bool inner_ring = whole_frame && result.hole_detected && ownBore(result, hole_search, bore);
-  if (ring_searched_about_bore)
+  // (Not where the ring was refused as an outline just above: nothing is left to lead outwards.)
+  if (ring_searched_about_bore && result.hole_detected)
   {
     inner_ring = true;
     bore = bore_ring_->bore;

@@ -853,6 +853,19 @@ TEST(FailureKinds, ARimSearchedAboutABoreTooLargeForItLeadsToTheFlangeOutsideIt)
   expectSlotTargetDetected(detector, renderSetFrame(FrameSet::kPackedOblique, 43, 81, 100, 640, detector), 0.03);
 }
 
+// A rib ring found about a bore, then refused as an outline larger than its bore allows (the result
+// cleared), was still taken as an inner ring: the outer rim's window was sized from a cleared
+// flange (NaN), and the Hough search threw (packed_oblique seed 187 #10 of 15 at 1280x720, in the
+// second search). Nothing is left to lead outwards there: no spool, no error.
+TEST(FailureKinds, ARibRingRefusedAsAnOutlineLeadsNowhere)
+{
+  SpoolDetector detector;
+  const RenderedFrame frame = renderSetFrame(FrameSet::kPackedOblique, 187, 10, 15, 1280, detector, 720);
+  SpoolDetection d;
+  ASSERT_NO_THROW(d = detector.detect(frame.image, PixelFormat::kBgr8));
+  EXPECT_TRUE(!d.detected || std::isfinite(d.distance));
+}
+
 // Seen 30-40 deg off its axis, a spool's front and back flanges make one outline, and a circle
 // fitted to it is 15-25% larger than the front rim and off the bore towards the back flange; the
 // matcher's oblique tolerances take it with the bore inside, and its depth is 8-12% short (oblique
