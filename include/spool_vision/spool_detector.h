@@ -633,7 +633,8 @@ private:
   /// height within kOutermostRimHeight, a lower rim's pose first scaled out to it
   /// (scaleToOutermostRim()). `ring_pose`, where given with `outermost_rim`: the pose searched about
   /// the bore and taken for the inner ring inside the flange, tried in place of a new search. Uses
-  /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_.
+  /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_. Sets silhouette_beyond_view_
+  /// (false unless it says so).
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result, bool outermost_rim = false,
                                 const SearchedPose* ring_pose = nullptr);
@@ -922,6 +923,13 @@ private:
   /// The whole frame's search replaced its weak match by the rim about its bore
   /// (rimAboutWeakMatch()): takesSecondSearch() takes that spool.
   bool weak_match_rim_taken_ = false;
+  /// searchedPoseSupportsMore(): about the bore of a flange no rim search gave (a whole frame's,
+  /// not outside an inner ring), the rim search found a pose its rim supports
+  /// further off the axis than any rim is measured (SpoolGeometry::kMaxMeasuredViewAngle) at a depth
+  /// Eq. 3.2 on the flange contradicts (SpoolGeometry::kMaxDepthDisagreement): the flange circle is
+  /// that spool's joint silhouette, the spool seen beyond the detector's range, and no spool is
+  /// reported.
+  bool silhouette_beyond_view_ = false;
   /// The whole frame's search took its spool about a bore too small to measure (smallBoreSpool()):
   /// takesSecondSearch() takes that spool.
   bool small_bore_spool_taken_ = false;

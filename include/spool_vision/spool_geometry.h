@@ -1,6 +1,7 @@
 // Stage 4: distance, yaw, reference point, overlap and alignment (thesis §3.4).
 #pragma once
 
+#include <cmath>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -136,10 +137,21 @@ public:
   bool measureFromAspect(SpoolDetection& detection, const std::vector<cv::Point2f>& rim) const;
   /// measureFromAspect()'s least fraction of the rim within the fit's band
   static constexpr double kMinAspectSupport = 0.5;
-  /// No absurd pose (issue 28): the rim fits' depth within 15% of Eq. 3.2's (`eq32_depth`, m, on
-  /// the rim's vertical semi-axis) and the axis within 40 deg of the line of sight (a rim seen
-  /// further off was never taken as one); finite.
+  /// No absurd pose (issue 28): the rim fits' depth within kMaxDepthDisagreement of Eq. 3.2's
+  /// (`eq32_depth`, m, on the rim's vertical semi-axis) and the axis within kMaxMeasuredViewAngle
+  /// of the line of sight (viewAngle()); finite.
   static bool plausiblePose(const cv::Point3d& position, const cv::Vec3d& axis, double eq32_depth);
+  /// The angle (rad, 0 to pi/2) between the spool axis `axis` (unit, camera frame) and the line of
+  /// sight to `position` (m, camera frame): how far off its axis the spool is seen.
+  static double viewAngle(const cv::Point3d& position, const cv::Vec3d& axis);
+  /// plausiblePose()'s widest view off the axis (rad): a rim's ellipse is only taken within 20% of
+  /// a circle (HoughAccumulator::refine), so no rim seen more than acos(0.8) = 37 deg off its axis
+  /// was measured.
+  static constexpr double kMaxMeasuredViewAngle = 40.0 * M_PI / 180.0;
+  /// plausiblePose()'s largest relative difference between a rim fit's depth and Eq. 3.2's: the
+  /// rim's vertical semi-axis gives the depth within a few percent whatever the fit (a cut rim's:
+  /// 6%; a pitch of 10 deg: 1.5%).
+  static constexpr double kMaxDepthDisagreement = 0.15;
 
 private:
   /// measure()'s quantities that follow from the detection's position and axis.

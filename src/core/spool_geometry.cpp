@@ -344,16 +344,16 @@ double SpoolGeometry::tolerance() const
 
 bool SpoolGeometry::plausiblePose(const cv::Point3d& position, const cv::Vec3d& axis, double eq32_depth)
 {
-  // A rim's ellipse is only taken within 20% of a circle (HoughAccumulator::refine), so no rim seen
-  // more than acos(0.8) = 37 deg off its axis was measured; and its vertical semi-axis gives the
-  // depth (Eq. 3.2) within a few percent whatever the fit (a cut rim's: 6%; a pitch of 10 deg:
-  // 1.5%). A fit beyond either contradicts its own image.
-  constexpr double kMaxDepthDisagreement = 0.15;
-  constexpr double kMaxViewAngle = 40.0 * M_PI / 180.0;
-  const cv::Vec3d ray = cv::normalize(cv::Vec3d(position.x, position.y, position.z));
+  // A fit beyond either limit contradicts its own image.
   return std::isfinite(position.z) && position.z > 0.0 && std::isfinite(axis[2]) &&
          std::abs(position.z / eq32_depth - 1.0) <= kMaxDepthDisagreement &&
-         std::acos(std::clamp(std::abs(ray.dot(axis)), 0.0, 1.0)) <= kMaxViewAngle;
+         viewAngle(position, axis) <= kMaxMeasuredViewAngle;
+}
+
+double SpoolGeometry::viewAngle(const cv::Point3d& position, const cv::Vec3d& axis)
+{
+  const cv::Vec3d ray = cv::normalize(cv::Vec3d(position.x, position.y, position.z));
+  return std::acos(std::clamp(std::abs(ray.dot(axis)), 0.0, 1.0));
 }
 
 void SpoolGeometry::refineOnRim(const std::vector<cv::Point2f>& rim, SpoolDetection& d) const
