@@ -133,6 +133,10 @@ public:
   static constexpr double kNearAxisAspect = 0.93;
   /// ... where the hole's rim scores this much (nearly whole: its size is then measured).
   static constexpr double kSharpHoleScore = 0.8;
+  /// The farthest (times the bore's radius) a sharp hole (kSharpHoleScore) of a rim outside an
+  /// inner ring may lie from the bore measured inside it and still be that bore: two bores of one
+  /// size this near overlap over most of their area.
+  static constexpr double kSharpBoreAgreement = 0.5;
   /// A bore rim this whole is sharp enough for bearingSupport().
   static constexpr double kSharpBoreScore = 0.95;
   /// Around a tracked rim's hole window the pixels within this many of its largest radius are

@@ -407,13 +407,18 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
       // about the pose's axis and the rim's window fits a circle, their centres up to half the
       // bore's radius apart (10.7 px on packed oblique seed 43 #24 at 640x480, 2.8 px on oblique 97
       // #80 at 320x240). That hole may be mismeasured, and a weaker circle about it a back flange's
-      // outline (0.36 on oblique seed 185 #48 of 300 at 640x480, 15% short).
+      // outline (0.36 on oblique seed 185 #48 of 300 at 640x480, 15% short). Both may be off the
+      // bore where the rim's own hole is not: a sharp hole within half a bore radius of either is
+      // that bore (packed_oblique seed 185 #109 of 200 at 640x480: the two 4.6 and 5.0 px off the
+      // truth, the flange's hole 1.8 px off, 6.3 and 5.9 px from them).
       auto concentric = [&](const SpoolDetection& rim)
       {
-        return rim.hole_detected &&
-               (std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y) <= centre_agreement ||
-                (rim.flange.score >= flange_search.min_score &&
-                 std::hypot(rim.hole.x - hole_seen.x, rim.hole.y - hole_seen.y) <= centre_agreement));
+        const double off_seen = std::hypot(rim.hole.x - seen.x, rim.hole.y - seen.y);
+        const double off_hole_seen = std::hypot(rim.hole.x - hole_seen.x, rim.hole.y - hole_seen.y);
+        const bool takeable = rim.flange.score >= flange_search.min_score;
+        return rim.hole_detected && (off_seen <= centre_agreement || (takeable && off_hole_seen <= centre_agreement) ||
+                                     (takeable && rim.hole.score >= kSharpHoleScore &&
+                                      std::min(off_seen, off_hole_seen) <= kSharpBoreAgreement * bore.r));
       };
       // Near the axis, a rim whole in the frame needs the support the frame's search asks: the
       // window's lower bar stands for a rim the border cuts, and a faint circle just outside a

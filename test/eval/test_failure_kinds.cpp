@@ -1164,3 +1164,13 @@ TEST(FailureKinds, AJointSilhouetteOfASpoolSeenBeyondTheRangeIsNoSpool)
     EXPECT_NEAR(d.distance, spools[*under].distance, 0.1 * spools[*under].distance) << "seed " << seed << " #" << index;
   }
 }
+
+// Outside an oblique rib ring (0.88 of the flange, seen 29 deg off the axis) the flange was found
+// about a sharp hole 1.8 px off the bore, but the bore measured inside the ring at its own size and
+// the ring's hole were 4.6 and 5.0 px off it, 6.3 and 5.9 px from the flange's hole: beyond the
+// centre tolerance, so the ring was reported, 16% too far (packed_oblique seed 185 #109 of 200 at
+// 640x480). A sharp hole within half a bore radius of either is that bore.
+TEST(FailureKinds, AFlangeOutsideARibRingIsTakenAboutItsOwnSharpHole)
+{
+  expectTargetFlange(185, 109, 200, FrameSet::kPackedOblique);
+}
