@@ -632,9 +632,10 @@ private:
   /// kBoreViewDepthAgreement of Eq. 3.2's on the flange). A searched pose whose rim keeps no fit
   /// about the hole is measured about the bore centre it projects to. Where the flange was not the
   /// searched rim, it is then reported as that pose's rim (rimSeenAt()). `result` in undistorted px.
-  /// `outermost_rim`: the flange is the outermost rim about its bore (found outside an inner
+  /// `outermost_rim`: the flange is the outermost rim found about its bore (outside an inner
   /// ring), so its height is the rim's: a searched pose is taken only where it gives its rim that
-  /// height within kOutermostRimHeight, a lower rim's pose first scaled out to it
+  /// height within kOutermostRimHeight or more (a higher rim is one outside it the window search
+  /// missed), a lower rim's pose first scaled out to it
   /// (scaleToOutermostRim()). `ring_pose`, where given with `outermost_rim`: the pose searched about
   /// the bore and taken for the inner ring inside the flange, tried in place of a new search. Uses
   /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_. Sets silhouette_beyond_view_

@@ -1174,3 +1174,22 @@ TEST(FailureKinds, AFlangeOutsideARibRingIsTakenAboutItsOwnSharpHole)
 {
   expectTargetFlange(185, 109, 200, FrameSet::kPackedOblique);
 }
+
+// Outside an inner ring, the window's search found a rib ring (0.85-0.89 of the flange) and nothing
+// outside it, the flange being cut by the frame or the puller rod; the rim searched about the bore
+// was the flange, 14-16% higher than that "outermost" rim, and was refused for its height: the
+// ring was reported 12-18% too far (packed_oblique seed 189 #103 of 200, oblique seed 131 #36 of
+// 100, at 640x480). A searched rim higher than the outermost one found is the flange.
+TEST(FailureKinds, ASearchedRimOutsideTheOutermostRimFoundIsTheFlange)
+{
+  for (const auto& [set, seed, index, count] :
+       {std::tuple{FrameSet::kPackedOblique, 189, 103, 200}, std::tuple{FrameSet::kOblique, 131, 36, 100}})
+  {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " #" + std::to_string(index));
+    SpoolDetector detector;
+    const RenderedFrame frame = renderSetFrame(set, seed, index, count, 640, detector);
+    const SpoolDetection d = detector.detect(frame.image, PixelFormat::kBgr8);
+    ASSERT_TRUE(d.detected);
+    EXPECT_NEAR(d.distance, frame.truth.distance, 0.03 * frame.truth.distance);
+  }
+}
