@@ -833,8 +833,13 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
       supported && !searched && !outermost_rim && !ring_pose &&
       SpoolGeometry::viewAngle(probe_rim_.position, probe_rim_.axis) > SpoolGeometry::kMaxMeasuredViewAngle &&
       std::abs(probe_rim_.position.z / eq32_depth - 1.0) > SpoolGeometry::kMaxDepthDisagreement;
+  // The flange is the outermost rim: a searched rim higher than the flange circle is the rim outside
+  // that circle, and its own height gives Eq. 3.2's depth (oblique seed 131 #80 at 320x240: a round
+  // rib ring 0.81 of the flange reported 19% too far; the rim searched about its bore 1.22 times
+  // as high, 1.1% off, beyond 15% of the ring's depth).
+  const double outer_eq32_depth = geometry.depthFromDiameter(2.0 * std::max(result.flange.r_vertical, seen.r_vertical));
   if (!supported || !depth_agrees || !height_agrees ||
-      !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis, eq32_depth))
+      !SpoolGeometry::plausiblePose(probe_rim_.position, probe_rim_.axis, outer_eq32_depth))
     return false;
   result.position = probe_rim_.position;
   result.axis = probe_rim_.axis;
