@@ -334,6 +334,16 @@ std::vector<BarRow> headlineRows(const EvaluationResult& result, size_t group)
   add("depth more than " + percent(kAbsurdDepthError, 0) + " off the spool under the flange (detections)",
       [](const QualityBars& b, const GroupResult& r)
       { return countCell(r.metrics.depth_over_10_percent, b.depth_over_10_max); });
+  add("of those: a ring inside the rim / an outline around it / the rim's height / no spool under it",
+      [](const QualityBars&, const GroupResult& r)
+      {
+        const Metrics& m = r.metrics;
+        BarRow::Cell c;
+        c.limit = "-";
+        c.measured = std::to_string(m.deep_inside) + " / " + std::to_string(m.deep_outside) + " / " +
+                     std::to_string(m.deep_same_height) + " / " + std::to_string(m.deep_on_nothing);
+        return c;
+      });
   add("distance (depth) error, median", [&](const QualityBars& b, const GroupResult& r)
       { return valueCell(r.metrics.distance_error.median, b.distance_median_max, relative); });
   add("distance (depth) error, 95th percentile", [&](const QualityBars& b, const GroupResult& r)
@@ -658,7 +668,12 @@ std::string scoringSection()
         "spool centre in view; **false spool** frames without a spool centre in view.\n"
      << "- Distance error is |measured - true| / true of the depth (z of the bore's front centre in the camera "
         "frame) and yaw error |measured - true|, against the target's own truth, over correct flanges on "
-        "flange-eligible frames.\n\n";
+        "flange-eligible frames.\n"
+     << "- **Depth more than 10% off** counts every detection on a frame with a target whose depth is that far "
+        "off the spool under the found flange's centre (any spool, correct or not: it is what a controller acts "
+        "on), split by the found flange's height against that spool's rim: under 0.95 a ring inside the rim (a rib "
+        "or inner ring), over 1.05 an outline around it (the joint silhouette of the front and back flanges, a "
+        "circle through a neighbour), within 5% the rim itself with a wrong pose; or no spool under it.\n\n";
 
   return md.str();
 }

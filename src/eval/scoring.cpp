@@ -174,6 +174,11 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
     const std::optional<size_t> under = spoolUnder(spools, detection.flange);
     s.any_depth_error = under ? (detection.distance - spools[*under].distance) / spools[*under].distance
                               : std::numeric_limits<double>::infinity();
+    if (under)
+    {
+      const double found = detection.flange.r_vertical > 0.0 ? detection.flange.r_vertical : detection.flange.r;
+      s.any_height_ratio = found / spools[*under].flange.r_vertical;
+    }
   }
   const SpoolTruth& target = spools[*target_index];
   const SpoolTruth& judged = spools[*judged_index];
@@ -237,7 +242,15 @@ Metrics summarize(const std::vector<FrameScore>& scores)
     m.false_spool.add(!s.has_target, s.detected);
     m.wrong_target.add(s.has_target && s.neighbours_in_view, s.detected && !s.correct);
     m.false_hole.add(s.hole_reported && s.hole_judged, !s.hole_correct);
-    m.depth_over_10_percent.add(s.detected && s.has_target, !(std::abs(s.any_depth_error) <= kAbsurdDepthError));
+    const bool deep = s.detected && s.has_target && !(std::abs(s.any_depth_error) <= kAbsurdDepthError);
+    m.depth_over_10_percent.add(s.detected && s.has_target, deep);
+    if (deep)
+    {
+      m.deep_on_nothing += std::isnan(s.any_height_ratio) ? 1 : 0;
+      m.deep_inside += s.any_height_ratio < 1.0 - kSameHeight ? 1 : 0;
+      m.deep_outside += s.any_height_ratio > 1.0 + kSameHeight ? 1 : 0;
+      m.deep_same_height += std::abs(s.any_height_ratio - 1.0) <= kSameHeight ? 1 : 0;
+    }
     if (s.flange_eligible)
     {
       m.missed += s.detected ? 0 : 1;

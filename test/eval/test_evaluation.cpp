@@ -479,10 +479,22 @@ TEST(Scoring, EveryDetectionsDepthIsJudgedAgainstTheSpoolUnderIt)
   const sv::FrameScore plate = sv::scoreFrame(emptySlot(), flangeAt(off));
   EXPECT_TRUE(std::isnan(none.any_depth_error));
 
+  EXPECT_NEAR(rib.any_height_ratio, 105.0 / 175.0, 1e-12);
+  // The joint outline of the front and back flanges, 1.3 times the rim, 23% short.
+  const sv::FrameScore outline = sv::scoreFrame(t, flangeAt(circleOf(*t.flange, 0.0, 52.5), 0.8 / 1.3));
+  EXPECT_NEAR(outline.any_height_ratio, 1.3, 1e-12);
+  // The rim itself at a wrong depth (its pose diverged).
+  const sv::FrameScore rim = sv::scoreFrame(t, flangeAt(circleOf(*t.flange, 0.0, 3.0), 0.6));
+
   const sv::Metrics m = sv::summarize({rib, neighbour, sv::scoreFrame(t, flangeAt(off)), none, plate,
-                                       sv::scoreFrame(t, flangeAt(circleOf(*t.flange), 0.87))});
-  EXPECT_EQ(m.depth_over_10_percent.frames, 4);
-  EXPECT_EQ(m.depth_over_10_percent.hits, 2);  // the rib ring and the flange on nothing; 8.75% is not
+                                       sv::scoreFrame(t, flangeAt(circleOf(*t.flange), 0.87)), outline, rim});
+  EXPECT_EQ(m.depth_over_10_percent.frames, 6);
+  // the rib ring, the flange on nothing, the outline and the rim at 0.6 m; 8.75% is not
+  EXPECT_EQ(m.depth_over_10_percent.hits, 4);
+  EXPECT_EQ(m.deep_inside, 1);
+  EXPECT_EQ(m.deep_outside, 1);
+  EXPECT_EQ(m.deep_same_height, 1);
+  EXPECT_EQ(m.deep_on_nothing, 1);
 }
 
 TEST(Scoring, WithoutASpoolCentreInViewAnyFlangeIsAFalseSpool)
@@ -725,8 +737,8 @@ TEST(Bars, EveryBarThatAppliesMustPassOnEverySet)
   auto reset = [&] { r.setups = {all_good, all_good, all_good}; };
   for (size_t s = 0; s < 3; ++s)
     EXPECT_TRUE(sv::barsPass(r, s)) << s;
-  EXPECT_EQ(sv::headlineRows(r, 0).size(), 13u);
-  EXPECT_EQ(sv::headlineRows(r, 1).size(), 13u);
+  EXPECT_EQ(sv::headlineRows(r, 0).size(), 14u);
+  EXPECT_EQ(sv::headlineRows(r, 1).size(), 14u);
   EXPECT_EQ(sv::poseRows(r, 2).size(), 11u);
 
   // Issue 10's pose bars: on the distorted set at 640x480 only.

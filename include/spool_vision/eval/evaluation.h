@@ -162,6 +162,9 @@ struct FrameScore
   /// the spool under the found flange's centre (spoolUnder); +inf on no spool. Issue 28: a rib
   /// ring taken as the flange is not "correct", yet its depth is what a controller acts on.
   double any_depth_error = kNaN;
+  /// The found flange's height (vertical semi-axis, px) over that spool's (same frames; NaN on no
+  /// spool): under 1 a ring inside its rim (a rib or inner ring), over 1 an outline around it.
+  double any_height_ratio = kNaN;
   // The slot's spool in 3D (its truth is known), correct detections on it only.
   double true_depth = kNaN;          ///< m, its depth
   double lateral_error = kNaN;       ///< m, lateral_offset measured - true
@@ -178,6 +181,9 @@ FrameScore scoreFrame(const GroundTruth& truth, const SpoolDetection& detection)
 /// A published depth further than this from the spool it lies on is one no controller may act on
 /// (issue 28: none anywhere).
 constexpr double kAbsurdDepthError = 0.10;
+/// Metrics::deep_*: a found flange within this of the height of the spool under it is that rim
+/// (a rim fit is within a few percent of it; rib rings are 0.6-0.91 of it, outlines 1.15-1.7).
+constexpr double kSameHeight = 0.05;
 
 /// The rendered spool whose projected rim contains `found`'s centre, the one with the nearest
 /// centre where several do (a rib ring or a bore lies inside its own flange); nullopt on none.
@@ -225,6 +231,13 @@ struct Metrics
   Rate false_hole;       ///< hole not on the bore / holes reported where the hole truth is known
   /// |any_depth_error| > kAbsurdDepthError / detections on frames with a target
   Rate depth_over_10_percent;
+  /// Those detections by what the found flange is against the spool under it (issue 28's kinds):
+  /// a ring inside its rim (height under 1 - kSameHeight of the rim's), an outline around it
+  /// (over 1 + kSameHeight), the rim's own height (its pose wrong), no spool under it.
+  int deep_inside = 0;
+  int deep_outside = 0;
+  int deep_same_height = 0;
+  int deep_on_nothing = 0;
   // Where the flange-eligible frames went wrong.
   int missed = 0;
   int on_other_spool = 0;
