@@ -638,11 +638,15 @@ private:
   /// missed), a lower rim's pose first scaled out to it
   /// (scaleToOutermostRim()). `ring_pose`, where given with `outermost_rim`: the pose searched about
   /// the bore and taken for the inner ring inside the flange, tried in place of a new search. Uses
-  /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_. Sets silhouette_beyond_view_
-  /// (false unless it says so).
+  /// own_rim_, oblique_rim_, probe_rim_, scaled_rim_ and hole_edges_. `beyond_view`, where given
+  /// (left as it is unless set true): about the bore of a flange no rim search gave (not outside an
+  /// inner ring), the searched rim is supported, lies further off the axis than any rim is
+  /// measured (SpoolGeometry::kMaxMeasuredViewAngle) and at a depth Eq. 3.2 on the flange
+  /// contradicts (SpoolGeometry::kMaxDepthDisagreement): the flange circle is that spool's joint
+  /// silhouette, the spool seen beyond the detector's range.
   bool searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
                                 SpoolDetection& result, bool outermost_rim = false,
-                                const SearchedPose* ring_pose = nullptr);
+                                const SearchedPose* ring_pose = nullptr, bool* beyond_view = nullptr);
   /// Where the rim of the pose searched about `bore` (probe_rim_, undistorted px) is lower than
   /// `outermost` (the outermost rim about that bore, undistorted px) by more than
   /// kOutermostRimHeight, it is a concentric ring of the same face (a rib ring, 0.83-0.91 of the
@@ -928,13 +932,6 @@ private:
   /// The whole frame's search replaced its weak match by the rim about its bore
   /// (rimAboutWeakMatch()): takesSecondSearch() takes that spool.
   bool weak_match_rim_taken_ = false;
-  /// searchedPoseSupportsMore(): about the bore of a flange no rim search gave (a whole frame's,
-  /// not outside an inner ring), the rim search found a pose its rim supports
-  /// further off the axis than any rim is measured (SpoolGeometry::kMaxMeasuredViewAngle) at a depth
-  /// Eq. 3.2 on the flange contradicts (SpoolGeometry::kMaxDepthDisagreement): the flange circle is
-  /// that spool's joint silhouette, the spool seen beyond the detector's range, and no spool is
-  /// reported.
-  bool silhouette_beyond_view_ = false;
   /// The whole frame's search took its spool about a bore too small to measure (smallBoreSpool()):
   /// takesSecondSearch() takes that spool.
   bool small_bore_spool_taken_ = false;

@@ -347,8 +347,9 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // the frame's edge: hard seed 7 #1, #56, at 640x480). The checks above keep the size its flange's
   // ellipse gives, which they were set on.
   const bool reported = whole_frame && !along_rim && !inner_ring;
-  const bool searched_pose_taken = reported && searchedPoseSupportsMore(image, format, geometry, result);
-  const bool silhouette_beyond_view = reported && silhouette_beyond_view_;
+  bool silhouette_beyond_view = false;
+  const bool searched_pose_taken =
+      reported && searchedPoseSupportsMore(image, format, geometry, result, false, nullptr, &silhouette_beyond_view);
   // The bore measured at its own size on the pose taken: a pose searched about the bore can be a
   // rib ring's, found about a round circle too small for the bore whose circle fit (21.5 px for a
   // 23.9 px high bore seen 32 deg off) agreed with it (packed_oblique seed 43 #37 at 640x480: the
@@ -487,7 +488,7 @@ SpoolDetection SpoolDetector::detect(const cv::Mat& image, PixelFormat format,
   // 13-18% off on the oblique sets (seed 7 #10, 131 #83 at 640x480; 131 #68 at 320x240). A round
   // one is judged on its own pose's axis alone, which can be 10 deg off (the right flange, seen 6
   // deg off its axis: seed.yaml, main seed 163 #57 of 60 at 160x120). Nor is a joint silhouette
-  // of a spool seen beyond the range (silhouette_beyond_view_).
+  // of a spool seen beyond the range (searchedPoseSupportsMore()'s `beyond_view`).
   if (((bare_ring || (oblique_inner_ring && oval(result.flange))) && !outer_taken) || silhouette_beyond_view)
   {
     noSpool(geometry, result);
@@ -744,9 +745,9 @@ bool SpoolDetector::sameCircle(const Circle& a, const Circle& b)
 }
 
 bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat format, const SpoolGeometry& geometry,
-                                             SpoolDetection& result, bool outermost_rim, const SearchedPose* ring_pose)
+                                             SpoolDetection& result, bool outermost_rim, const SearchedPose* ring_pose,
+                                             bool* beyond_view)
 {
-  silhouette_beyond_view_ = false;
   if (!result.hole_detected)
     return false;
   const bool has_axis = std::isfinite(result.axis[2]);
@@ -829,10 +830,11 @@ bool SpoolDetector::searchedPoseSupportsMore(const cv::Mat& image, PixelFormat f
   // where it is (packed_oblique seed 185 #83 at 640x480: 48.7 deg off, 0.878 m for the truth's
   // 0.869; the circle's Eq. 3.2 0.596 m). On 24 rendered sets, every other rim found about a
   // reported flange's bore beyond 40 deg was within 8% of Eq. 3.2's depth on that flange.
-  silhouette_beyond_view_ =
-      supported && !searched && !outermost_rim && !ring_pose &&
-      SpoolGeometry::viewAngle(probe_rim_.position, probe_rim_.axis) > SpoolGeometry::kMaxMeasuredViewAngle &&
-      std::abs(probe_rim_.position.z / eq32_depth - 1.0) > SpoolGeometry::kMaxDepthDisagreement;
+  if (beyond_view)
+    *beyond_view =
+        supported && !searched && !outermost_rim && !ring_pose &&
+        SpoolGeometry::viewAngle(probe_rim_.position, probe_rim_.axis) > SpoolGeometry::kMaxMeasuredViewAngle &&
+        std::abs(probe_rim_.position.z / eq32_depth - 1.0) > SpoolGeometry::kMaxDepthDisagreement;
   // The flange is the outermost rim: a searched rim higher than the flange circle is the rim outside
   // that circle, and its own height gives Eq. 3.2's depth (oblique seed 131 #80 at 320x240: a round
   // rib ring 0.81 of the flange reported 19% too far; the rim searched about its bore 1.22 times
